@@ -1,0 +1,59 @@
+// irgrid/accelerator.h: the coarse backend seam: build a structure over a scene, trace batches.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "irgrid/ray.h"
+#include "irgrid/scene.h"
+
+namespace irgrid {
+
+/// Figures a structure reports about its build.
+struct BuildInfo {
+  double build_ms = 0;                         ///< wall time of the build, allocation included
+  std::map<std::string, double> phases_ms;     ///< per-phase wall times, in build order
+  std::uint64_t memory_bytes = 0;              ///< bytes of the final structure (triangles included)
+  std::map<std::string, std::uint64_t> counts; ///< structure-specific counts (cells, references, ...)
+};
+
+/// A built acceleration structure over one scene on one backend. Tracing is one call per batch
+/// of rays (no virtual call per ray); a structure may be traced from several threads at once.
+/// The scene must outlive the structure.
+class Accelerator {
+ public:
+  virtual ~Accelerator() = default;
+  /// Structure name as accepted by make_accelerator ("brute", "embree", ...).
+  virtual std::string structure() const = 0;
+  /// Backend name: "cpu" or "cuda".
+  virtual std::string backend() const = 0;
+  /// Traces rays[i] into hits[i] for every i; rays.size() must equal hits.size().
+  virtual void trace(std::span<const Ray> rays, std::span<Hit> hits, Query query) const = 0;
+  virtual const BuildInfo& build_info() const = 0;
+};
+
+/// Options for make_accelerator; more fields arrive with more structures.
+struct AcceleratorOptions {
+  std::string backend = "cpu";  ///< "cpu", "cuda" or "auto" (CUDA when a GPU is visible)
+};
+
+/// Builds `structure` over `scene`. Throws Error{invalid_argument} naming the structure when it is
+/// unknown or not compiled in, Error{no_device} when the backend is unavailable.
+std::unique_ptr<Accelerator> make_accelerator(const Scene& scene, const std::string& structure,
+                                              const AcceleratorOptions& options = {});
+
+/// Structures compiled into this build, fastest first.
+std::vector<std::string> available_structures();
+
+/// The fastest structure compiled in: what rendering and secondary-ray generation use.
+std::string default_structure();
+
+/// Brute force over all triangles in double precision, watertight: the trusted reference that
+/// tests and `bench --validate` compare against. Slow; meant for subsets of rays.
+void trace_reference_double(const Scene& scene, std::span<const Ray> rays, std::span<Hit> hits,
+                            Query query);
+
+}  // namespace irgrid

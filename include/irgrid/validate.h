@@ -1,0 +1,28 @@
+// irgrid/validate.h: checking a structure's hits against the double-precision brute force.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "irgrid/ray.h"
+#include "irgrid/scene.h"
+
+namespace irgrid {
+
+/// Outcome of comparing hits with the reference on a sample of rays.
+struct Validation {
+  std::uint64_t checked = 0;           ///< rays compared
+  std::uint64_t mismatches = 0;        ///< rays whose hit disagrees with the reference
+  std::vector<std::string> examples;   ///< a few mismatches, described for people
+};
+
+/// Compares hits[i] with trace_reference_double on `sample` rays chosen at random (all rays when
+/// sample >= rays.size()), with a fixed seed. A closest hit agrees when both miss, or both hit
+/// and either the triangle ids match or the distances differ by at most 1e-5 x scene diagonal
+/// (ties on shared edges); an any-hit agrees when both say occluded or both say free.
+Validation validate_hits(const Scene& scene, std::span<const Ray> rays, std::span<const Hit> hits,
+                         Query query, std::uint64_t sample, std::uint64_t seed = 7);
+
+}  // namespace irgrid

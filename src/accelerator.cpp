@@ -1,0 +1,64 @@
+// The structure factory: picks a structure and backend by name.
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include "cpu/structures.h"
+#include "irgrid/error.h"
+#include "irgrid/system.h"
+
+namespace irgrid {
+
+void check_trace_spans(std::span<const Ray> rays, std::span<Hit> hits) {
+  if (rays.size() != hits.size())
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("trace: {} rays but room for {} hits", rays.size(), hits.size()));
+}
+
+std::vector<std::string> available_structures() {
+  std::vector<std::string> names;
+#if IRGRID_HAS_EMBREE
+  names.push_back("embree");
+#endif
+  names.push_back("brute");
+  return names;
+}
+
+std::string default_structure() { return available_structures().front(); }
+
+namespace {
+
+std::string resolve_backend(const std::string& backend) {
+  if (backend == "cpu") return backend;
+  if (backend != "cuda" && backend != "auto")
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("unknown backend '{}' (expected cpu, cuda or auto)", backend));
+  const auto cuda = cuda_status();
+  if (!cuda.gpus.empty()) return "cuda";
+  if (backend == "auto") return "cpu";
+  throw Error(ErrorCode::no_device, fmt::format("backend cuda: {}", cuda.status));
+}
+
+}  // namespace
+
+std::unique_ptr<Accelerator> make_accelerator(const Scene& scene, const std::string& structure,
+                                              const AcceleratorOptions& options) {
+  const auto backend = resolve_backend(options.backend);
+  if (structure == "brute") {
+#if IRGRID_HAS_CUDA
+    if (backend == "cuda") return make_brute_force_cuda(scene);
+#endif
+    return make_brute_force_cpu(scene);
+  }
+#if IRGRID_HAS_EMBREE
+  if (structure == "embree") {
+    if (backend == "cuda" && options.backend == "cuda")
+      throw Error(ErrorCode::invalid_argument, "structure 'embree' runs on the cpu backend only");
+    return make_embree_cpu(scene);
+  }
+#endif
+  throw Error(ErrorCode::invalid_argument,
+              fmt::format("unknown structure '{}' (this build has: {})", structure,
+                          fmt::join(available_structures(), ", ")));
+}
+
+}  // namespace irgrid

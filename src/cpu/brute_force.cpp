@@ -1,0 +1,67 @@
+// The brute-force tracer on the CPU: every ray against every triangle, in parallel with oneTBB.
+#include <chrono>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "core/watertight.h"
+#include "cpu/structures.h"
+
+namespace irgrid {
+namespace {
+
+struct TriangleVertices {
+  Vec3<float> p0, p1, p2;
+};
+
+class BruteForceCpu final : public Accelerator {
+ public:
+  explicit BruteForceCpu(const Scene& scene) {
+    const auto start = std::chrono::steady_clock::now();
+    triangles_.reserve(scene.triangles.size());
+    for (const auto& tri : scene.triangles)
+      triangles_.push_back({Vec3<float>::from(scene.vertices[tri[0]]),
+                            Vec3<float>::from(scene.vertices[tri[1]]),
+                            Vec3<float>::from(scene.vertices[tri[2]])});
+    info_.build_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    info_.phases_ms["triangles"] = info_.build_ms;
+    info_.memory_bytes = triangles_.size() * sizeof(TriangleVertices);
+  }
+
+  std::string structure() const override { return "brute"; }
+  std::string backend() const override { return "cpu"; }
+  const BuildInfo& build_info() const override { return info_; }
+
+  void trace(std::span<const Ray> rays, std::span<Hit> hits, Query query) const override {
+    check_trace_spans(rays, hits);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rays.size(), 16), [&](const auto& range) {
+      for (std::size_t i = range.begin(); i != range.end(); ++i) hits[i] = trace_one(rays[i], query);
+    });
+  }
+
+ private:
+  Hit trace_one(const Ray& ray, Query query) const {
+    const auto r = make_watertight_ray<float>(ray);
+    Hit best;
+    TriangleHit<float> hit;
+    for (std::size_t j = 0; j < triangles_.size(); ++j) {
+      const auto& tri = triangles_[j];
+      if (!intersect_watertight(r, tri.p0, tri.p1, tri.p2, best.t, hit)) continue;
+      best = {std::uint32_t(j), hit.t, hit.u, hit.v};
+      if (query == Query::any) break;
+    }
+    return best;
+  }
+
+  std::vector<TriangleVertices> triangles_;
+  BuildInfo info_;
+};
+
+}  // namespace
+
+std::unique_ptr<Accelerator> make_brute_force_cpu(const Scene& scene) {
+  return std::make_unique<BruteForceCpu>(scene);
+}
+
+}  // namespace irgrid

@@ -1,0 +1,22 @@
+// cpu/structures.h: constructors of the structures, for the factory in accelerator.cpp.
+#pragma once
+
+#include <memory>
+#include <span>
+
+#include "irgrid/accelerator.h"
+
+namespace irgrid {
+
+std::unique_ptr<Accelerator> make_brute_force_cpu(const Scene& scene);
+#if IRGRID_HAS_EMBREE
+std::unique_ptr<Accelerator> make_embree_cpu(const Scene& scene);
+#endif
+#if IRGRID_HAS_CUDA
+std::unique_ptr<Accelerator> make_brute_force_cuda(const Scene& scene);
+#endif
+
+/// Throws Error{invalid_argument} unless rays and hits have the same length.
+void check_trace_spans(std::span<const Ray> rays, std::span<Hit> hits);
+
+}  // namespace irgrid

@@ -1,0 +1,42 @@
+// Version and machine description (CPU model, threads) for `irgrid info` and benchmark JSON.
+#include <fstream>
+#include <string>
+#include <thread>
+
+#include <tbb/info.h>
+#include <tbb/task_arena.h>
+
+#include "irgrid/system.h"
+
+namespace irgrid {
+
+const char* version() noexcept { return "0.1.0"; }
+
+namespace {
+
+std::string cpu_model_name() {
+  std::ifstream cpuinfo("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(cpuinfo, line)) {
+    if (line.rfind("model name", 0) != 0) continue;
+    const auto colon = line.find(':');
+    if (colon == std::string::npos) break;
+    const auto start = line.find_first_not_of(" \t", colon + 1);
+    return start == std::string::npos ? std::string() : line.substr(start);
+  }
+  return "unknown CPU";
+}
+
+}  // namespace
+
+MachineInfo machine_info() {
+  MachineInfo info;
+  info.cpu_model = cpu_model_name();
+  info.hardware_threads = int(std::thread::hardware_concurrency());
+  info.tbb_threads = tbb::this_task_arena::max_concurrency();
+  const auto cuda = cuda_status();
+  if (!cuda.gpus.empty()) info.gpu = cuda.gpus.front().name;
+  return info;
+}
+
+}  // namespace irgrid

@@ -1,0 +1,142 @@
+// The irgrid command line: exit codes, messages on stderr, and the files it writes.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Result {
+  int code;
+  std::string out, err;
+};
+
+fs::path scratch_dir() {
+  const auto dir = fs::temp_directory_path() / ("irgrid_test_cli_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::string read_text(const fs::path& path) {
+  std::ifstream file(path);
+  std::stringstream text;
+  text << file.rdbuf();
+  return text.str();
+}
+
+/// Runs the irgrid binary with `args` (a shell fragment), capturing stdout and stderr.
+Result run(const std::string& args) {
+  const auto dir = scratch_dir();
+  const std::string command = std::string(IRGRID_CLI_PATH) + " " + args + " >" +
+                              (dir / "stdout").string() + " 2>" + (dir / "stderr").string();
+  const int status = std::system(command.c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_text(dir / "stdout"),
+          read_text(dir / "stderr")};
+}
+
+class Cli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (std::string(IRGRID_CLI_PATH).empty()) GTEST_SKIP() << "the CLI is not built";
+  }
+  fs::path dir = scratch_dir();
+};
+
+TEST_F(Cli, InfoPrintsVersionBackendsAndBuiltinScenes) {
+  const auto r = run("info");
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("irgrid 0."), std::string::npos);
+  EXPECT_NE(r.out.find("backends:"), std::string::npos);
+  EXPECT_NE(r.out.find("builtin:hairball"), std::string::npos);
+}
+
+TEST_F(Cli, InfoOnASceneReportsItsTriangles) {
+  const auto r = run("info builtin:cube --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto json = nlohmann::json::parse(r.out);
+  EXPECT_EQ(json["scene"]["triangles"], 12);
+  EXPECT_EQ(json["scene"]["dropped"]["degenerate"], 0);
+}
+
+TEST_F(Cli, MissingSceneFileIsExitTwoNamingThePath) {
+  const auto r = run("info /nonexistent/scene.obj");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("/nonexistent/scene.obj"), std::string::npos) << r.err;
+}
+
+TEST_F(Cli, MalformedObjIsExitTwoNamingTheLine) {
+  std::ofstream(dir / "broken.obj") << "v 0 0 0\nv 1 0 0\nv 0 oops 0\nf 1 2 3\n";
+  const auto r = run("info " + (dir / "broken.obj").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("broken.obj"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("3"), std::string::npos) << r.err;
+}
+
+TEST_F(Cli, BadOptionValuesAreExitTwo) {
+  EXPECT_EQ(run("rays builtin:cube --kind shadow -o " + (dir / "x.rays").string()).code, 2);
+  EXPECT_EQ(run("bench builtin:cube --structure kd-tree").code, 2);
+  EXPECT_EQ(run("render builtin:cube --mode xray -o " + (dir / "x.png").string()).code, 2);
+  EXPECT_EQ(run("frobnicate").code, 2);
+  EXPECT_EQ(run("info builtin:nosuchscene").code, 2);
+  EXPECT_EQ(run("--help").code, 0);
+}
+
+TEST_F(Cli, RaysThenTraceWritesOneHitPerRay) {
+  const auto rays = (dir / "cornell.rays").string(), hits = (dir / "cornell.hits").string();
+  auto r = run("rays builtin:cornell --kind primary -w 20 -h 10 -o " + rays);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(fs::file_size(rays), 200u * 32u);
+  r = run("trace builtin:cornell --rays " + rays + " -o " + hits + " --structure brute");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(fs::file_size(hits), 200u * 16u);
+  r = run("trace builtin:cornell --rays " + rays + " --any-hit -o " + hits);
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::vector<float> records(200 * 4);
+  std::ifstream(hits, std::ios::binary).read(reinterpret_cast<char*>(records.data()), 200 * 16);
+  for (int i = 0; i < 200; ++i) EXPECT_EQ(records[i * 4 + 1], 0.f) << "closed room: all occluded";
+}
+
+TEST_F(Cli, TraceReadsHagridRaysWithGivenInterval) {
+  const auto rays = (dir / "h.rays").string(), hits = (dir / "h.hits").string();
+  ASSERT_EQ(run("rays builtin:cube --kind random --count 50 --format hagrid -o " + rays).code, 0);
+  EXPECT_EQ(fs::file_size(rays), 50u * 24u);
+  const auto r = run("trace builtin:cube --rays " + rays + " --format hagrid --tmax 0 -o " + hits);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("(0 hits)"), std::string::npos) << "tmax 0 leaves nothing to hit: " << r.out;
+}
+
+TEST_F(Cli, BenchValidatesAndWritesJson) {
+  const auto json_path = (dir / "bench.json").string();
+  const auto r = run("bench builtin:cornell --structure brute --width 24 --height 16 --repeat 2 "
+                     "--validate 200 --json " + json_path);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto json = nlohmann::json::parse(read_text(json_path));
+  for (const char* key : {"scene", "triangles", "backend", "structure", "build_ms", "build_phases_ms",
+                          "memory_bytes", "machine", "runs"})
+    EXPECT_TRUE(json.contains(key)) << key;
+  ASSERT_EQ(json["runs"].size(), 8u);  // 2 views x 4 kinds
+  for (const auto& run : json["runs"]) {
+    EXPECT_EQ(run["mismatches"], 0);
+    EXPECT_EQ(run["checked"], std::min<int>(200, run["rays"].get<int>()));
+  }
+}
+
+TEST_F(Cli, RenderWritesAPng) {
+  const auto png = (dir / "cornell.png").string();
+  const auto r = run("render builtin:cornell -w 64 -h 48 -o " + png);
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::ifstream file(png, std::ios::binary);
+  char magic[4] = {};
+  file.read(magic, 4);
+  EXPECT_EQ(std::string(magic + 1, 3), "PNG");
+}
+
+}  // namespace

@@ -1,0 +1,109 @@
+// Every structure built into this binary agrees with the double-precision brute force.
+#include <gtest/gtest.h>
+
+#include "irgrid/accelerator.h"
+#include "irgrid/error.h"
+#include "irgrid/rays.h"
+#include "irgrid/validate.h"
+
+namespace irgrid {
+namespace {
+
+struct Workload {
+  std::vector<Ray> rays;
+  Query query;
+  std::string what;
+};
+
+std::vector<Workload> standard_workloads(const Scene& scene) {
+  RayConfig config;
+  config.width = 40, config.height = 30, config.spp = 2, config.count = 1500;
+  const auto brute = make_accelerator(scene, "brute");
+  std::vector<Workload> loads;
+  const auto views = scene_views(scene);
+  for (std::size_t v = 0; v < views.size(); ++v)
+    for (RayKind kind : {RayKind::primary, RayKind::ao, RayKind::diffuse, RayKind::random})
+      loads.push_back({generate_rays(scene, views[v], kind, config, brute.get()),
+                       kind == RayKind::ao ? Query::any : Query::closest,
+                       std::string(to_string(kind)) + " view " + std::to_string(v)});
+  return loads;
+}
+
+class EveryStructure : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(EveryStructure, AgreesWithTheReferenceOnStandardRays) {
+  for (const char* spec : {"builtin:cornell", "builtin:teapot-stadium:3000", "builtin:soup:3000"}) {
+    const Scene scene = load_scene(spec);
+    const auto structure = make_accelerator(scene, GetParam());
+    for (const auto& load : standard_workloads(scene)) {
+      std::vector<Hit> hits(load.rays.size());
+      structure->trace(load.rays, hits, load.query);
+      const auto result = validate_hits(scene, load.rays, hits, load.query, load.rays.size());
+      EXPECT_EQ(result.checked, load.rays.size());
+      EXPECT_EQ(result.mismatches, 0u) << spec << " " << load.what << ": "
+                                       << (result.examples.empty() ? "" : result.examples[0]);
+    }
+  }
+}
+
+TEST_P(EveryStructure, RespectsTminAndTmax) {
+  const Scene scene = load_scene("builtin:cube");
+  const auto structure = make_accelerator(scene, GetParam());
+  // Along +z through the cube's centre: entry at t = 4, exit at t = 6.
+  const std::vector<Ray> rays = {{{0.1f, 0.2f, -5}, 0, {0, 0, 1}, 100},
+                                 {{0.1f, 0.2f, -5}, 4.5f, {0, 0, 1}, 100},
+                                 {{0.1f, 0.2f, -5}, 0, {0, 0, 1}, 3.9f},
+                                 {{0.1f, 0.2f, -5}, 6.1f, {0, 0, 1}, 100}};
+  std::vector<Hit> hits(rays.size());
+  structure->trace(rays, hits, Query::closest);
+  EXPECT_FLOAT_EQ(hits[0].t, 4.f);
+  EXPECT_FLOAT_EQ(hits[1].t, 6.f);
+  EXPECT_FALSE(hits[2].hit());
+  EXPECT_FALSE(hits[3].hit());
+  structure->trace(rays, hits, Query::any);
+  EXPECT_TRUE(hits[0].hit());
+  EXPECT_TRUE(hits[1].hit());
+  EXPECT_FALSE(hits[2].hit());
+  EXPECT_FALSE(hits[3].hit());
+}
+
+TEST_P(EveryStructure, RejectsMismatchedSpans) {
+  const Scene scene = load_scene("builtin:cube");
+  const auto structure = make_accelerator(scene, GetParam());
+  std::vector<Ray> rays(3);
+  std::vector<Hit> hits(2);
+  EXPECT_THROW(structure->trace(rays, hits, Query::closest), Error);
+}
+
+INSTANTIATE_TEST_SUITE_P(Cpu, EveryStructure, ::testing::ValuesIn(available_structures()));
+
+TEST(Validation, CountsWrongHits) {
+  const Scene scene = load_scene("builtin:cube");
+  const std::vector<Ray> rays = {{{0.1f, 0.2f, -5}, 0, {0, 0, 1}, 100},
+                                 {{0.1f, 0.2f, -5}, 0, {0, 0, -1}, 100}};
+  std::vector<Hit> hits(2);
+  trace_reference_double(scene, rays, hits, Query::closest);
+  EXPECT_EQ(validate_hits(scene, rays, hits, Query::closest, 10).mismatches, 0u);
+  std::swap(hits[0], hits[1]);  // a hit reported as a miss and a miss as a hit
+  const auto result = validate_hits(scene, rays, hits, Query::closest, 10);
+  EXPECT_EQ(result.checked, 2u);
+  EXPECT_EQ(result.mismatches, 2u);
+  EXPECT_FALSE(result.examples.empty());
+}
+
+TEST(Factory, UnknownStructureOrBackendNamesTheValue) {
+  const Scene scene = load_scene("builtin:cube");
+  try {
+    make_accelerator(scene, "kd-tree");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ErrorCode::invalid_argument);
+    EXPECT_NE(std::string(e.what()).find("kd-tree"), std::string::npos);
+  }
+  AcceleratorOptions options;
+  options.backend = "opencl";
+  EXPECT_THROW(make_accelerator(scene, "brute", options), Error);
+}
+
+}  // namespace
+}  // namespace irgrid

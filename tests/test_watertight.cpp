@@ -1,0 +1,184 @@
+// The watertight triangle test: no ray slips through shared edges or vertices of closed meshes,
+// and the float test agrees with the double-precision reference.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <map>
+
+#include "core/random.h"
+#include "core/watertight.h"
+#include "irgrid/accelerator.h"
+#include "irgrid/scene.h"
+
+namespace irgrid {
+namespace {
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+Ray ray_towards(Vec3<float> origin, Vec3<float> target) {
+  const auto dir = target - origin;
+  return {{origin.x, origin.y, origin.z}, 0.f, {dir.x, dir.y, dir.z}, kInf};
+}
+
+Vec3<float> random_point_on_sphere(Pcg32& rng, float radius) {
+  const float z = 1 - 2 * rng.next_float(), phi = 6.2831853f * rng.next_float();
+  const float r = std::sqrt(std::max(0.f, 1 - z * z));
+  return Vec3<float>{r * std::cos(phi), r * std::sin(phi), z} * radius;
+}
+
+/// A point on the mesh where triangles meet (a vertex or a point on an edge), in float as the
+/// rays will see it, with the triangles that share it.
+struct SharedPoint {
+  Vec3<float> position;
+  std::vector<std::size_t> triangles;
+};
+
+std::vector<SharedPoint> vertices_and_edge_points(const Scene& scene) {
+  std::vector<SharedPoint> points(scene.vertices.size());
+  for (std::size_t v = 0; v < points.size(); ++v) points[v].position = Vec3<float>::from(scene.vertices[v]);
+  std::map<std::pair<std::uint32_t, std::uint32_t>, std::vector<std::size_t>> edges;
+  for (std::size_t t = 0; t < scene.triangles.size(); ++t)
+    for (int e = 0; e < 3; ++e) {
+      const auto a = scene.triangles[t][e], b = scene.triangles[t][(e + 1) % 3];
+      points[a].triangles.push_back(t);
+      edges[{std::min(a, b), std::max(a, b)}].push_back(t);
+    }
+  for (const auto& [edge, triangles] : edges) {
+    const auto a = Vec3<float>::from(scene.vertices[edge.first]);
+    const auto b = Vec3<float>::from(scene.vertices[edge.second]);
+    points.push_back({(a + b) * 0.5f, triangles});
+    points.push_back({a + (b - a) * 0.3f, triangles});
+  }
+  return points;
+}
+
+/// Whether every triangle at the point clearly faces `origin`, or every one clearly faces away,
+/// so that a ray from the origin through the point crosses the surface there instead of grazing
+/// a silhouette (where a miss is legitimate).
+bool crosses_transversally(const Scene& scene, const SharedPoint& point, Vec3<float> origin) {
+  const auto to_point = normalize(Vec3d::from(&point.position.x) - Vec3d::from(&origin.x));
+  int facing = 0, away = 0;
+  for (std::size_t t : point.triangles) {
+    const auto& tri = scene.triangles[t];
+    const auto p0 = Vec3d::from(scene.vertices[tri[0]]);
+    const auto n = normalize(cross(Vec3d::from(scene.vertices[tri[1]]) - p0,
+                                   Vec3d::from(scene.vertices[tri[2]]) - p0));
+    const double cosine = dot(n, to_point);
+    facing += cosine < -0.05;
+    away += cosine > 0.05;
+  }
+  const auto all = int(point.triangles.size());
+  return facing == all || away == all;
+}
+
+/// Aims rays from `origins` exactly at every vertex and edge point that they cross transversally;
+/// counts the rays that miss. Returns {rays, misses}.
+std::pair<std::size_t, std::size_t> count_leaks(const Scene& scene,
+                                                const std::vector<Vec3<float>>& origins) {
+  std::vector<Ray> rays;
+  for (const auto& point : vertices_and_edge_points(scene))
+    for (const auto& origin : origins)
+      if (crosses_transversally(scene, point, origin)) rays.push_back(ray_towards(origin, point.position));
+  std::vector<Hit> hits(rays.size());
+  make_accelerator(scene, "brute")->trace(rays, hits, Query::closest);
+  std::size_t leaks = 0;
+  for (const Hit& hit : hits) leaks += !hit.hit();
+  return {rays.size(), leaks};
+}
+
+TEST(Watertight, RaysFromOutsideAtEdgesAndVerticesNeverSlipThrough) {
+  for (const char* spec : {"builtin:cube", "builtin:sphere:500"}) {
+    const Scene scene = load_scene(spec);
+    Pcg32 rng;
+    rng.seed(1);
+    std::vector<Vec3<float>> origins;
+    for (int i = 0; i < 24; ++i) origins.push_back(random_point_on_sphere(rng, 7.3f));
+    const auto [rays, leaks] = count_leaks(scene, origins);
+    EXPECT_GT(rays, 500u) << spec;
+    EXPECT_EQ(leaks, 0u) << spec;
+  }
+}
+
+TEST(Watertight, RaysFromInsideAtEdgesAndVerticesNeverSlipThrough) {
+  for (const char* spec : {"builtin:cube", "builtin:sphere:500"}) {
+    const Scene scene = load_scene(spec);
+    const std::vector<Vec3<float>> origins = {
+        {0, 0, 0}, {0.1f, -0.2f, 0.3f}, {-0.31f, 0.05f, 0.12f}, {0.4f, 0.4f, -0.4f}};
+    const auto [rays, leaks] = count_leaks(scene, origins);
+    EXPECT_GT(rays, 100u) << spec;
+    EXPECT_EQ(leaks, 0u) << spec;
+  }
+}
+
+TEST(Watertight, AxisParallelRaysThroughEdgesOfTheCube) {
+  const Scene scene = load_scene("builtin:cube");
+  std::vector<Ray> rays;
+  for (float a : {-1.f, -0.5f, 0.f, 0.5f, 1.f})
+    for (float b : {-1.f, -0.5f, 0.f, 0.5f, 1.f}) {
+      rays.push_back({{a, b, -5}, 0, {0, 0, 1}, kInf});
+      rays.push_back({{a, -5, b}, 0, {0, 1, 0}, kInf});
+      rays.push_back({{-5, a, b}, 0, {1, 0, 0}, kInf});
+    }
+  std::vector<Hit> hits(rays.size());
+  make_accelerator(scene, "brute")->trace(rays, hits, Query::closest);
+  // Every ray enters through the near face, its edges or its corners (even those lying in the
+  // plane of a side face): the boundary of a triangle belongs to it.
+  for (std::size_t i = 0; i < rays.size(); ++i) {
+    ASSERT_TRUE(hits[i].hit()) << "ray " << i;
+    EXPECT_FLOAT_EQ(hits[i].t, 4.f) << "ray " << i;
+  }
+}
+
+TEST(Watertight, IntervalIsInclusiveAndRespected) {
+  const auto r = make_watertight_ray<float>({{0.2f, 0.2f, -1}, 0, {0, 0, 1}, 1});
+  TriangleHit<float> hit{};
+  const Vec3<float> p0{0, 0, 0}, p1{1, 0, 0}, p2{0, 1, 0};
+  EXPECT_TRUE(intersect_watertight(r, p0, p1, p2, kInf, hit));
+  EXPECT_FLOAT_EQ(hit.t, 1.f);
+  EXPECT_FLOAT_EQ(hit.u, 0.2f);
+  EXPECT_FLOAT_EQ(hit.v, 0.2f);
+  EXPECT_FALSE(intersect_watertight(r, p0, p1, p2, 1.f, hit)) << "t_limit is exclusive";
+  const auto short_ray = make_watertight_ray<float>({{0.2f, 0.2f, -1}, 0, {0, 0, 1}, 0.99f});
+  EXPECT_FALSE(intersect_watertight(short_ray, p0, p1, p2, kInf, hit));
+  const auto late_ray = make_watertight_ray<float>({{0.2f, 0.2f, -1}, 1.01f, {0, 0, 1}, kInf});
+  EXPECT_FALSE(intersect_watertight(late_ray, p0, p1, p2, kInf, hit));
+}
+
+TEST(Watertight, DegenerateTrianglesAndRaysInThePlaneNeverHit) {
+  TriangleHit<float> hit{};
+  const auto r = make_watertight_ray<float>({{0.2f, 0.2f, -1}, 0, {0, 0, 1}, kInf});
+  EXPECT_FALSE(intersect_watertight(r, {0, 0, 0}, {1, 0, 0}, {2, 0, 0}, kInf, hit));
+  EXPECT_FALSE(intersect_watertight(r, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}, kInf, hit));
+  const auto in_plane = make_watertight_ray<float>({{-1, 0.2f, 0}, 0, {1, 0, 0}, kInf});
+  EXPECT_FALSE(intersect_watertight(in_plane, {0, 0, 0}, {1, 0, 0}, {0, 1, 0}, kInf, hit));
+}
+
+TEST(Watertight, FloatAgreesWithDoubleReferenceOnARandomSoup) {
+  const Scene scene = load_scene("builtin:soup:2000");
+  Pcg32 rng;
+  rng.seed(5);
+  std::vector<Ray> rays(4000);
+  for (auto& ray : rays) {
+    const auto o = random_point_on_sphere(rng, 2.f) + Vec3<float>{0.5f, 0.5f, 0.5f};
+    const Vec3<float> target{rng.next_float(), rng.next_float(), rng.next_float()};
+    const auto d = target - o;
+    ray = {{o.x, o.y, o.z}, 0, {d.x, d.y, d.z}, kInf};
+  }
+  std::vector<Hit> hits(rays.size()), reference(rays.size());
+  make_accelerator(scene, "brute")->trace(rays, hits, Query::closest);
+  trace_reference_double(scene, rays, reference, Query::closest);
+  std::size_t hit_count = 0;
+  for (std::size_t i = 0; i < rays.size(); ++i) {
+    ASSERT_EQ(hits[i].prim, reference[i].prim) << "ray " << i;
+    if (!hits[i].hit()) continue;
+    ++hit_count;
+    EXPECT_NEAR(hits[i].t, reference[i].t, 1e-4f * reference[i].t);
+    EXPECT_NEAR(hits[i].u, reference[i].u, 1e-3f);
+    EXPECT_NEAR(hits[i].v, reference[i].v, 1e-3f);
+  }
+  EXPECT_GT(hit_count, rays.size() / 4) << "the test must exercise hits";
+}
+
+}  // namespace
+}  // namespace irgrid

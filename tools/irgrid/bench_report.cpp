@@ -1,0 +1,63 @@
+// Tables and JSON for `irgrid bench` (JSON layout documented in docs/bench-json.md).
+#include "bench_report.h"
+
+#include <fstream>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "irgrid/error.h"
+#include "irgrid/system.h"
+
+namespace irgrid::cli {
+
+void print_bench_table(const BenchResult& r) {
+  const auto machine = machine_info();
+  fmt::print("scene {}: {} triangles | structure {} on {} | build {:.2f} ms | memory {:.2f} MiB "
+             "({:.1f} B/triangle)\n",
+             r.scene, r.triangles, r.structure, r.backend, r.build.build_ms,
+             r.build.memory_bytes / 1048576.0,
+             r.triangles ? double(r.build.memory_bytes) / double(r.triangles) : 0.0);
+  fmt::print("machine: {}, {} threads{}\n", machine.cpu_model, machine.tbb_threads,
+             machine.gpu.empty() ? "" : ", GPU " + machine.gpu);
+  fmt::print("{:>4}  {:<8} {:>10} {:>10} {:>10} {:>10} {:>9} {:>10}\n", "view", "kind", "rays",
+             "hits", "ms", "MRays/s", "checked", "mismatches");
+  for (const auto& run : r.runs)
+    fmt::print("{:>4}  {:<8} {:>10} {:>10} {:>10.2f} {:>10.2f} {:>9} {:>10}\n", run.view, run.kind,
+               run.rays, run.hits, run.median_ms, run.mrays_per_s, run.checked, run.mismatches);
+}
+
+void write_bench_json(const BenchResult& r, const std::string& path) {
+  const auto machine = machine_info();
+  nlohmann::json runs = nlohmann::json::array();
+  for (const auto& run : r.runs)
+    runs.push_back({{"kind", run.kind},
+                    {"view", run.view},
+                    {"rays", run.rays},
+                    {"hits", run.hits},
+                    {"median_ms", run.median_ms},
+                    {"mrays_per_s", run.mrays_per_s},
+                    {"checked", run.checked},
+                    {"mismatches", run.mismatches}});
+  const nlohmann::json out = {
+      {"irgrid_version", version()},
+      {"scene", r.scene},
+      {"triangles", r.triangles},
+      {"backend", r.backend},
+      {"structure", r.structure},
+      {"build_ms", r.build.build_ms},
+      {"build_phases_ms", r.build.phases_ms},
+      {"memory_bytes", r.build.memory_bytes},
+      {"counts", r.build.counts},
+      {"machine",
+       {{"cpu", machine.cpu_model},
+        {"threads", machine.tbb_threads},
+        {"gpu", machine.gpu.empty() ? nlohmann::json() : nlohmann::json(machine.gpu)}}},
+      {"runs", runs}};
+  std::ofstream file(path);
+  if (!file) throw Error(ErrorCode::io, fmt::format("{}: cannot create", path));
+  file << out.dump(2) << '\n';
+  if (!file.flush()) throw Error(ErrorCode::io, fmt::format("{}: write failed", path));
+}
+
+}  // namespace irgrid::cli

@@ -1,0 +1,35 @@
+// tools/irgrid/bench_report.h: the results of `irgrid bench` as a table and as JSON.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "irgrid/accelerator.h"
+
+namespace irgrid::cli {
+
+/// One view and ray kind, traced `repeat` times after a warm-up.
+struct BenchRun {
+  std::string kind;
+  int view = 0;
+  std::uint64_t rays = 0, hits = 0;
+  double median_ms = 0, mrays_per_s = 0;
+  std::uint64_t checked = 0, mismatches = 0;
+};
+
+struct BenchResult {
+  std::string scene;
+  std::uint64_t triangles = 0;
+  std::string structure, backend;
+  BuildInfo build;  ///< build_ms is the median over the timed builds
+  std::vector<BenchRun> runs;
+};
+
+/// A table for people on stdout.
+void print_bench_table(const BenchResult& result);
+
+/// The stable JSON of docs/bench-json.md.
+void write_bench_json(const BenchResult& result, const std::string& path);
+
+}  // namespace irgrid::cli

@@ -1,0 +1,166 @@
+// `irgrid bench`: builds a structure, traces the standard rays, validates, then reports speed.
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+
+#include <fmt/format.h>
+
+#include "bench_report.h"
+#include "commands.h"
+#include "common.h"
+#include "irgrid/camera.h"
+#include "irgrid/error.h"
+#include "irgrid/rays.h"
+#include "irgrid/validate.h"
+
+namespace irgrid::cli {
+namespace {
+
+struct BenchOptions {
+  std::string scene, structure, backend = "cpu", kinds = "primary,ao,diffuse,random", views,
+                                views_file, rays_file, format = "irgrid", json;
+  int repeat = 5;
+  std::uint64_t validate = 10000;
+  bool any_hit = false;
+  RayConfig config;
+};
+
+double median(std::vector<double> values) {
+  std::sort(values.begin(), values.end());
+  const std::size_t n = values.size();
+  return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+}
+
+/// Builds once to warm up, then `repeat` more times; keeps the last and the median time.
+std::unique_ptr<Accelerator> timed_build(const Scene& scene, const BenchOptions& o, BuildInfo& info) {
+  AcceleratorOptions options;
+  options.backend = o.backend;
+  auto accelerator = make_accelerator(scene, o.structure, options);
+  std::vector<double> times;
+  for (int i = 0; i < o.repeat; ++i) {
+    accelerator.reset();
+    accelerator = make_accelerator(scene, o.structure, options);
+    times.push_back(accelerator->build_info().build_ms);
+  }
+  info = accelerator->build_info();
+  info.build_ms = median(times);
+  return accelerator;
+}
+
+BenchRun measure(const Scene& scene, const Accelerator& accelerator, std::span<const Ray> rays,
+                 Query query, const BenchOptions& o, BenchRun run) {
+  std::vector<Hit> hits(rays.size());
+  trace_with_progress(accelerator, rays, hits, query, fmt::format("{} view {} warm-up", run.kind, run.view));
+  std::vector<double> times;
+  for (int i = 0; i < o.repeat; ++i) {
+    const auto start = std::chrono::steady_clock::now();
+    accelerator.trace(rays, hits, query);
+    times.push_back(milliseconds_since(start));
+  }
+  run.rays = rays.size();
+  run.hits = std::size_t(std::count_if(hits.begin(), hits.end(), [](const Hit& h) { return h.hit(); }));
+  run.median_ms = median(times);
+  run.mrays_per_s = run.median_ms > 0 ? double(run.rays) / run.median_ms / 1000.0 : 0.0;
+  if (o.validate > 0) {
+    const auto validation = validate_hits(scene, rays, hits, query, o.validate);
+    run.checked = validation.checked;
+    run.mismatches = validation.mismatches;
+    for (const auto& example : validation.examples)
+      fmt::print(stderr, "mismatch ({} view {}): {}\n", run.kind, run.view, example);
+  }
+  return run;
+}
+
+std::vector<int> chosen_views(const BenchOptions& o, std::size_t available) {
+  std::vector<int> views;
+  if (o.views.empty()) {
+    for (std::size_t i = 0; i < available; ++i) views.push_back(int(i));
+    return views;
+  }
+  for (const auto& part : split_list(o.views)) {
+    char* end = nullptr;
+    const long index = std::strtol(part.c_str(), &end, 10);
+    if (*end != '\0' || index < 0 || std::size_t(index) >= available)
+      throw Error(ErrorCode::invalid_argument,
+                  fmt::format("--views: '{}' is not a view index below {}", part, available));
+    views.push_back(int(index));
+  }
+  return views;
+}
+
+void run_standard_kinds(const Scene& scene, const Accelerator& accelerator, const BenchOptions& o,
+                        BenchResult& result) {
+  const auto cameras = scene_views(scene, o.views_file);
+  std::vector<RayKind> kinds;
+  for (const auto& name : split_list(o.kinds)) kinds.push_back(parse_ray_kind(name));
+  // Secondary rays come from the primary hits of one fixed structure, so that every structure
+  // under test gets the same rays.
+  std::unique_ptr<Accelerator> generator;
+  const Accelerator* ray_tracer = &accelerator;
+  if (accelerator.structure() != default_structure() || accelerator.backend() != "cpu") {
+    generator = make_accelerator(scene, default_structure());
+    ray_tracer = generator.get();
+  }
+  for (int view : chosen_views(o, cameras.size()))
+    for (RayKind kind : kinds) {
+      const auto rays = generate_rays(scene, cameras[std::size_t(view)], kind, o.config, ray_tracer);
+      const Query query = kind == RayKind::ao ? Query::any : Query::closest;
+      result.runs.push_back(measure(scene, accelerator, rays, query, o, {to_string(kind), view}));
+    }
+}
+
+int run_bench(BenchOptions o) {
+  if (o.repeat < 1) throw Error(ErrorCode::invalid_argument, "--repeat must be at least 1");
+  if (o.structure.empty()) o.structure = default_structure();
+  if (o.config.count == 0) o.config.count = std::uint64_t(o.config.width) * std::uint64_t(o.config.height);
+  const Scene scene = load_scene_reporting(o.scene);
+  BenchResult result{scene.name, scene.triangle_count(), o.structure, "", {}, {}};
+  const auto accelerator = timed_build(scene, o, result.build);
+  result.backend = accelerator->backend();
+  if (!o.rays_file.empty()) {
+    const auto rays = read_rays(o.rays_file, parse_ray_format(o.format));
+    result.runs.push_back(measure(scene, *accelerator, rays, o.any_hit ? Query::any : Query::closest,
+                                  o, {"file", 0}));
+  } else {
+    run_standard_kinds(scene, *accelerator, o, result);
+  }
+  print_bench_table(result);
+  if (!o.json.empty()) write_bench_json(result, o.json);
+  std::uint64_t mismatches = 0;
+  for (const auto& run : result.runs) mismatches += run.mismatches;
+  if (mismatches == 0) return 0;
+  fmt::print(stderr, "irgrid: validation failed: {} mismatching rays\n", mismatches);
+  return 1;
+}
+
+}  // namespace
+
+void add_bench_command(CLI::App& app) {
+  auto o = std::make_shared<BenchOptions>();
+  o->config.count = 0;  // 0: as many random rays as pixels
+  auto* cmd = app.add_subcommand("bench", "Build, trace the standard rays, validate, report MRays/s");
+  cmd->add_option("scene", o->scene, "Scene file or builtin:NAME[:N]")->required();
+  cmd->add_option("--structure", o->structure, "Structure (default: fastest built in)");
+  cmd->add_option("--backend", o->backend, "cpu, cuda or auto")->capture_default_str();
+  cmd->add_option("--kinds", o->kinds, "Ray kinds, comma-separated")->capture_default_str();
+  cmd->add_option("--views", o->views, "View indices, comma-separated (default: all)");
+  cmd->add_option("--views-file", o->views_file, "views.json to take the cameras from");
+  cmd->add_option("--spp", o->config.spp, "Secondary rays per primary hit")->capture_default_str();
+  cmd->add_option("--width", o->config.width, "Image width of primary rays")->capture_default_str();
+  cmd->add_option("--height", o->config.height, "Image height of primary rays")->capture_default_str();
+  cmd->add_option("--count", o->config.count, "Random rays (default: width x height)");
+  cmd->add_option("--seed", o->config.seed, "Random seed")->capture_default_str();
+  cmd->add_option("--rays", o->rays_file, "Trace the rays of this file instead (kind 'file')");
+  cmd->add_option("--format", o->format, "Format of --rays: irgrid or hagrid")->capture_default_str();
+  cmd->add_flag("--any-hit", o->any_hit, "With --rays: occlusion queries");
+  cmd->add_option("--repeat", o->repeat, "Timed repetitions (median reported)")->capture_default_str();
+  cmd->add_option("--validate", o->validate, "Rays per run checked against double brute force (0: off)")
+      ->capture_default_str();
+  cmd->add_option("--json", o->json, "Write results as JSON to this file");
+  cmd->callback([o] {
+    const int code = run_bench(*o);
+    if (code != 0) throw CLI::RuntimeError(code);
+  });
+}
+
+}  // namespace irgrid::cli

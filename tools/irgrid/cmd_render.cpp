@@ -1,0 +1,130 @@
+// `irgrid render`: a picture of a scene view (shaded, normals, triangle ids or ambient occlusion).
+#include <cmath>
+
+#include <fmt/format.h>
+#include <tbb/parallel_for.h>
+
+#include "commands.h"
+#include "common.h"
+#include "core/random.h"
+#include "core/vec.h"
+#include "irgrid/camera.h"
+#include "irgrid/error.h"
+#include "irgrid/image.h"
+#include "irgrid/rays.h"
+
+namespace irgrid::cli {
+namespace {
+
+struct RenderOptions {
+  std::string scene, output, mode = "shaded", views_file, eye, target, up = "0,1,0", structure,
+                             backend = "cpu";
+  int view = 0, width = 1024, height = 1024, spp = 16;
+  float fov = 60;
+};
+
+using Rgb = Vec3<float>;
+
+std::uint8_t to_byte(float value) {
+  return std::uint8_t(std::lround(255.f * std::pow(std::clamp(value, 0.f, 1.f), 1 / 2.2f)));
+}
+
+Rgb background(const Ray& ray) {
+  const float up = 0.5f + 0.5f * ray.dir[1] / std::sqrt(ray.dir[0] * ray.dir[0] +
+                                                        ray.dir[1] * ray.dir[1] + ray.dir[2] * ray.dir[2]);
+  return Rgb{0.05f, 0.06f, 0.09f} * (1 - up) + Rgb{0.18f, 0.22f, 0.32f} * up;
+}
+
+/// Unit geometric normal of the hit triangle, facing the ray.
+Vec3<float> facing_normal(const Scene& scene, const Ray& ray, const Hit& hit) {
+  const auto& tri = scene.triangles[hit.prim];
+  const auto p0 = Vec3<float>::from(scene.vertices[tri[0]]);
+  auto n = normalize(cross(Vec3<float>::from(scene.vertices[tri[1]]) - p0,
+                           Vec3<float>::from(scene.vertices[tri[2]]) - p0));
+  return dot(n, Vec3<float>::from(ray.dir)) > 0 ? -n : n;
+}
+
+Rgb shade(const std::string& mode, const Scene& scene, const Ray& ray, const Hit& hit) {
+  if (!hit.hit()) return background(ray);
+  const auto n = facing_normal(scene, ray, hit);
+  if (mode == "normal") return Rgb{n.x, n.y, n.z} * 0.5f + Rgb{0.5f, 0.5f, 0.5f};
+  if (mode == "primid") {
+    const auto h = hash64(hit.prim);
+    return Rgb{float(h & 255), float(h >> 8 & 255), float(h >> 16 & 255)} * (1 / 255.f);
+  }
+  const float cosine = -dot(n, normalize(Vec3<float>::from(ray.dir)));
+  return Rgb{0.85f, 0.80f, 0.72f} * (0.12f + 0.88f * cosine);
+}
+
+/// Fraction of unoccluded ambient-occlusion rays per pixel.
+std::vector<float> ambient_occlusion(const Scene& scene, const Accelerator& tracer,
+                                     std::span<const Ray> primary, std::span<const Hit> hits, int spp) {
+  const auto ao_rays = secondary_rays(scene, primary, hits, RayKind::ao, spp, 0x5eed);
+  std::vector<Hit> occlusion(ao_rays.size());
+  trace_with_progress(tracer, ao_rays, occlusion, Query::any, "ambient occlusion");
+  std::vector<float> visibility(primary.size(), 1.f);
+  std::size_t next = 0;
+  for (std::size_t i = 0; i < primary.size(); ++i) {
+    if (!hits[i].hit()) continue;
+    int free = 0;
+    for (int s = 0; s < spp; ++s) free += !occlusion[next++].hit();
+    visibility[i] = float(free) / float(spp);
+  }
+  return visibility;
+}
+
+Camera choose_camera(const Scene& scene, const RenderOptions& o) {
+  if (o.eye.empty() != o.target.empty())
+    throw Error(ErrorCode::invalid_argument, "--eye and --target go together");
+  if (o.eye.empty()) return pick_view(scene, o.view, o.views_file);
+  return Camera{parse_vec3(o.eye, "--eye"), parse_vec3(o.target, "--target"), parse_vec3(o.up, "--up"),
+                o.fov};
+}
+
+void run_render(const RenderOptions& o) {
+  if (o.mode != "shaded" && o.mode != "normal" && o.mode != "primid" && o.mode != "ao")
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("--mode '{}': expected shaded, normal, primid or ao", o.mode));
+  const Scene scene = load_scene_reporting(o.scene);
+  const Camera camera = choose_camera(scene, o);
+  const auto tracer = build_reporting(scene, o.structure.empty() ? default_structure() : o.structure,
+                                      o.backend);
+  const auto rays = primary_rays(camera, o.width, o.height);
+  std::vector<Hit> hits(rays.size());
+  trace_with_progress(*tracer, rays, hits, Query::closest, "primary rays");
+  std::vector<float> visibility;
+  if (o.mode == "ao") visibility = ambient_occlusion(scene, *tracer, rays, hits, o.spp);
+  std::vector<std::uint8_t> pixels(rays.size() * 3);
+  tbb::parallel_for(std::size_t(0), rays.size(), [&](std::size_t i) {
+    Rgb c = o.mode == "ao" ? (hits[i].hit() ? Rgb{1, 1, 1} * visibility[i] : background(rays[i]))
+                           : shade(o.mode, scene, rays[i], hits[i]);
+    pixels[3 * i] = to_byte(c.x), pixels[3 * i + 1] = to_byte(c.y), pixels[3 * i + 2] = to_byte(c.z);
+  });
+  write_png(o.output, o.width, o.height, pixels);
+  fmt::print("wrote {}x{} {} image to {}\n", o.width, o.height, o.mode, o.output);
+}
+
+}  // namespace
+
+void add_render_command(CLI::App& app) {
+  auto o = std::make_shared<RenderOptions>();
+  auto* cmd = app.add_subcommand("render", "Render a view of a scene to a PNG");
+  cmd->set_help_flag("--help", "Print this help message and exit");
+  cmd->add_option("scene", o->scene, "Scene file or builtin:NAME[:N]")->required();
+  cmd->add_option("-o,--output", o->output, "PNG file to write")->required();
+  cmd->add_option("--view", o->view, "Index of the camera in the scene's views")->capture_default_str();
+  cmd->add_option("--views", o->views_file, "views.json to take the cameras from");
+  cmd->add_option("--eye", o->eye, "Camera position x,y,z (with --target)");
+  cmd->add_option("--target", o->target, "Point looked at x,y,z");
+  cmd->add_option("--up", o->up, "Up vector x,y,z")->capture_default_str();
+  cmd->add_option("--fov", o->fov, "Vertical field of view in degrees")->capture_default_str();
+  cmd->add_option("-w,--width", o->width, "Image width")->capture_default_str();
+  cmd->add_option("-h,--height", o->height, "Image height")->capture_default_str();
+  cmd->add_option("--mode", o->mode, "shaded, normal, primid or ao")->capture_default_str();
+  cmd->add_option("--spp", o->spp, "Ambient-occlusion rays per pixel (mode ao)")->capture_default_str();
+  cmd->add_option("--structure", o->structure, "Structure to trace with (default: fastest built in)");
+  cmd->add_option("--backend", o->backend, "cpu, cuda or auto")->capture_default_str();
+  cmd->callback([o] { run_render(*o); });
+}
+
+}  // namespace irgrid::cli

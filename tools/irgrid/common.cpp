@@ -1,0 +1,86 @@
+// Scene loading, building and tracing with reports and progress, shared by the subcommands.
+#include "common.h"
+
+#include <charconv>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "irgrid/camera.h"
+#include "irgrid/error.h"
+#include "progress.h"
+
+namespace irgrid::cli {
+
+double milliseconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+Scene load_scene_reporting(const std::string& spec) {
+  const auto start = std::chrono::steady_clock::now();
+  Scene scene = load_scene(spec);
+  for (const auto& warning : scene.report.warnings) fmt::print(stderr, "warning: {}\n", warning);
+  fmt::print(stderr, "loaded {}: {} triangles", spec, scene.triangle_count());
+  if (scene.report.dropped() > 0) fmt::print(stderr, " ({} dropped)", scene.report.dropped());
+  fmt::print(stderr, " in {:.2f} s\n", milliseconds_since(start) / 1000);
+  if (scene.triangles.empty())
+    throw Error(ErrorCode::invalid_argument, fmt::format("{}: no valid triangles", spec));
+  return scene;
+}
+
+std::unique_ptr<Accelerator> build_reporting(const Scene& scene, const std::string& structure,
+                                             const std::string& backend) {
+  AcceleratorOptions options;
+  options.backend = backend;
+  auto accelerator = make_accelerator(scene, structure, options);
+  fmt::print(stderr, "built {} on {} in {:.1f} ms\n", accelerator->structure(),
+             accelerator->backend(), accelerator->build_info().build_ms);
+  return accelerator;
+}
+
+void trace_with_progress(const Accelerator& accelerator, std::span<const Ray> rays,
+                         std::span<Hit> hits, Query query, const std::string& label) {
+  constexpr std::size_t kChunk = 1 << 16;
+  Progress progress(label, rays.size());
+  for (std::size_t first = 0; first < rays.size(); first += kChunk) {
+    const std::size_t count = std::min(kChunk, rays.size() - first);
+    accelerator.trace(rays.subspan(first, count), hits.subspan(first, count), query);
+    progress.advance(count);
+  }
+}
+
+std::array<float, 3> parse_vec3(const std::string& text, const std::string& option) {
+  std::array<float, 3> out{};
+  const auto parts = split_list(text);
+  bool ok = parts.size() == 3;
+  for (std::size_t i = 0; ok && i < 3; ++i) {
+    const char* end = parts[i].data() + parts[i].size();
+    const auto result = std::from_chars(parts[i].data(), end, out[i]);
+    ok = result.ec == std::errc() && result.ptr == end && std::isfinite(out[i]);
+  }
+  if (!ok)
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("{} '{}': expected three finite numbers x,y,z", option, text));
+  return out;
+}
+
+std::vector<std::string> split_list(const std::string& text) {
+  std::vector<std::string> parts;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    const std::size_t comma = std::min(text.find(',', start), text.size());
+    if (comma > start) parts.push_back(text.substr(start, comma - start));
+    start = comma + 1;
+  }
+  return parts;
+}
+
+Camera pick_view(const Scene& scene, int index, const std::string& views_file) {
+  const auto views = scene_views(scene, views_file);
+  if (index < 0 || std::size_t(index) >= views.size())
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("--view {}: scene {} has {} view(s)", index, scene.name, views.size()));
+  return views[std::size_t(index)];
+}
+
+}  // namespace irgrid::cli

@@ -1,0 +1,38 @@
+// tools/irgrid/common.h: what the subcommands share: loading, building, tracing with progress.
+#pragma once
+
+#include <array>
+#include <chrono>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "irgrid/accelerator.h"
+#include "irgrid/scene.h"
+
+namespace irgrid::cli {
+
+/// Loads a scene and prints a one-line summary plus its warnings on stderr.
+Scene load_scene_reporting(const std::string& spec);
+
+/// Builds a structure, printing what was built and how long it took on stderr.
+std::unique_ptr<Accelerator> build_reporting(const Scene& scene, const std::string& structure,
+                                             const std::string& backend);
+
+/// Traces in chunks so a long trace shows progress on a terminal.
+void trace_with_progress(const Accelerator& accelerator, std::span<const Ray> rays,
+                         std::span<Hit> hits, Query query, const std::string& label);
+
+/// Parses "x,y,z"; throws Error{invalid_argument} naming the option and text.
+std::array<float, 3> parse_vec3(const std::string& text, const std::string& option);
+
+/// Splits "a,b,c" into its non-empty parts.
+std::vector<std::string> split_list(const std::string& text);
+
+/// Picks view `index` of the scene's views; throws Error{invalid_argument} if out of range.
+Camera pick_view(const Scene& scene, int index, const std::string& views_file);
+
+double milliseconds_since(std::chrono::steady_clock::time_point start);
+
+}  // namespace irgrid::cli
