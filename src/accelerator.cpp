@@ -23,7 +23,9 @@ std::vector<std::string> available_structures() {
   return names;
 }
 
-std::string default_structure() { return available_structures().front(); }
+std::string default_structure() {
+  return available_structures().front();
+}
 
 namespace {
 

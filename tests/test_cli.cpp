@@ -101,7 +101,8 @@ TEST_F(Cli, RaysThenTraceWritesOneHitPerRay) {
   ASSERT_EQ(r.code, 0) << r.err;
   std::vector<float> records(200 * 4);
   std::ifstream(hits, std::ios::binary).read(reinterpret_cast<char*>(records.data()), 200 * 16);
-  for (int i = 0; i < 200; ++i) EXPECT_EQ(records[i * 4 + 1], 0.f) << "closed room: all occluded";
+  for (int i = 0; i < 200; ++i)
+    EXPECT_EQ(records[i * 4 + 1], 0.f) << "closed room: all occluded";
 }
 
 TEST_F(Cli, TraceReadsHagridRaysWithGivenInterval) {
@@ -115,12 +116,14 @@ TEST_F(Cli, TraceReadsHagridRaysWithGivenInterval) {
 
 TEST_F(Cli, BenchValidatesAndWritesJson) {
   const auto json_path = (dir / "bench.json").string();
-  const auto r = run("bench builtin:cornell --structure brute --width 24 --height 16 --repeat 2 "
-                     "--validate 200 --json " + json_path);
+  const auto r =
+      run("bench builtin:cornell --structure brute --width 24 --height 16 --repeat 2 "
+          "--validate 200 --json " +
+          json_path);
   ASSERT_EQ(r.code, 0) << r.err;
   const auto json = nlohmann::json::parse(read_text(json_path));
-  for (const char* key : {"scene", "triangles", "backend", "structure", "build_ms", "build_phases_ms",
-                          "memory_bytes", "machine", "runs"})
+  for (const char* key : {"scene", "triangles", "backend", "structure", "build_ms",
+                          "build_phases_ms", "memory_bytes", "machine", "runs"})
     EXPECT_TRUE(json.contains(key)) << key;
   ASSERT_EQ(json["runs"].size(), 8u);  // 2 views x 4 kinds
   for (const auto& run : json["runs"]) {

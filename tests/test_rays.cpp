@@ -20,7 +20,8 @@ bool same_bits(const std::vector<Ray>& a, const std::vector<Ray>& b) {
 }
 
 fs::path temp_file(const std::string& name) {
-  return fs::temp_directory_path() / ("irgrid_test_rays_" + std::to_string(::getpid()) + "_" + name);
+  return fs::temp_directory_path() /
+         ("irgrid_test_rays_" + std::to_string(::getpid()) + "_" + name);
 }
 
 class RaysTest : public ::testing::Test {
@@ -61,7 +62,7 @@ TEST_F(RaysTest, PrimaryRaysCoverTheImageThroughPixelCentres) {
   const float expected = 0.5f / std::sqrt(1.5f);
   EXPECT_NEAR(rays[0].dir[0], -expected, 1e-6);  // top-left
   EXPECT_NEAR(rays[0].dir[1], expected, 1e-6);
-  EXPECT_NEAR(rays[3].dir[0], expected, 1e-6);   // bottom-right
+  EXPECT_NEAR(rays[3].dir[0], expected, 1e-6);  // bottom-right
   EXPECT_NEAR(rays[3].dir[1], -expected, 1e-6);
   for (const Ray& ray : rays) {
     EXPECT_EQ(ray.tmin, 0.f);
@@ -75,14 +76,16 @@ TEST_F(RaysTest, SecondaryRaysLeaveTheSurfaceOnTheCameraSide) {
   std::vector<Hit> hits(primary.size());
   tracer->trace(primary, hits, Query::closest);
   std::size_t hit_count = 0;
-  for (const Hit& h : hits) hit_count += h.hit();
+  for (const Hit& h : hits)
+    hit_count += h.hit();
   const auto ao = secondary_rays(scene, primary, hits, RayKind::ao, 3, 1);
   ASSERT_EQ(ao.size(), hit_count * 3);
   const float diagonal = scene.bounds().diagonal();
   for (const Ray& ray : ao) {
     EXPECT_NEAR(ray.tmax, 0.1f * diagonal, 1e-5f * diagonal);
-    EXPECT_NEAR(std::sqrt(ray.dir[0] * ray.dir[0] + ray.dir[1] * ray.dir[1] + ray.dir[2] * ray.dir[2]),
-                1.f, 1e-5f);
+    EXPECT_NEAR(
+        std::sqrt(ray.dir[0] * ray.dir[0] + ray.dir[1] * ray.dir[1] + ray.dir[2] * ray.dir[2]), 1.f,
+        1e-5f);
   }
   const auto diffuse = secondary_rays(scene, primary, hits, RayKind::diffuse, 3, 1);
   ASSERT_EQ(diffuse.size(), ao.size());
@@ -90,7 +93,8 @@ TEST_F(RaysTest, SecondaryRaysLeaveTheSurfaceOnTheCameraSide) {
   // Inside the closed room, every diffuse ray hits a wall, never the triangle it left through.
   std::vector<Hit> bounce(diffuse.size());
   tracer->trace(diffuse, bounce, Query::closest);
-  for (const Hit& h : bounce) ASSERT_TRUE(h.hit());
+  for (const Hit& h : bounce)
+    ASSERT_TRUE(h.hit());
 }
 
 TEST_F(RaysTest, RandomRaysStartInsideTheBox) {
@@ -126,7 +130,8 @@ TEST_F(RaysTest, HagridFileRoundTripKeepsOriginAndDirection) {
   write_rays(path, rays, RayFormat::hagrid);
   EXPECT_EQ(fs::file_size(path), 100u * 24u);
   const auto back = read_rays(path, RayFormat::hagrid, 0.5f, 7.f);
-  for (Ray& ray : rays) ray.tmin = 0.5f, ray.tmax = 7.f;
+  for (Ray& ray : rays)
+    ray.tmin = 0.5f, ray.tmax = 7.f;
   EXPECT_TRUE(same_bits(back, rays));
   fs::remove(path);
 }

@@ -36,7 +36,8 @@ struct SharedPoint {
 
 std::vector<SharedPoint> vertices_and_edge_points(const Scene& scene) {
   std::vector<SharedPoint> points(scene.vertices.size());
-  for (std::size_t v = 0; v < points.size(); ++v) points[v].position = Vec3<float>::from(scene.vertices[v]);
+  for (std::size_t v = 0; v < points.size(); ++v)
+    points[v].position = Vec3<float>::from(scene.vertices[v]);
   std::map<std::pair<std::uint32_t, std::uint32_t>, std::vector<std::size_t>> edges;
   for (std::size_t t = 0; t < scene.triangles.size(); ++t)
     for (int e = 0; e < 3; ++e) {
@@ -62,8 +63,8 @@ bool crosses_transversally(const Scene& scene, const SharedPoint& point, Vec3<fl
   for (std::size_t t : point.triangles) {
     const auto& tri = scene.triangles[t];
     const auto p0 = Vec3d::from(scene.vertices[tri[0]]);
-    const auto n = normalize(cross(Vec3d::from(scene.vertices[tri[1]]) - p0,
-                                   Vec3d::from(scene.vertices[tri[2]]) - p0));
+    const auto n = normalize(
+        cross(Vec3d::from(scene.vertices[tri[1]]) - p0, Vec3d::from(scene.vertices[tri[2]]) - p0));
     const double cosine = dot(n, to_point);
     facing += cosine < -0.05;
     away += cosine > 0.05;
@@ -79,11 +80,13 @@ std::pair<std::size_t, std::size_t> count_leaks(const Scene& scene,
   std::vector<Ray> rays;
   for (const auto& point : vertices_and_edge_points(scene))
     for (const auto& origin : origins)
-      if (crosses_transversally(scene, point, origin)) rays.push_back(ray_towards(origin, point.position));
+      if (crosses_transversally(scene, point, origin))
+        rays.push_back(ray_towards(origin, point.position));
   std::vector<Hit> hits(rays.size());
   make_accelerator(scene, "brute")->trace(rays, hits, Query::closest);
   std::size_t leaks = 0;
-  for (const Hit& hit : hits) leaks += !hit.hit();
+  for (const Hit& hit : hits)
+    leaks += !hit.hit();
   return {rays.size(), leaks};
 }
 
@@ -93,7 +96,8 @@ TEST(Watertight, RaysFromOutsideAtEdgesAndVerticesNeverSlipThrough) {
     Pcg32 rng;
     rng.seed(1);
     std::vector<Vec3<float>> origins;
-    for (int i = 0; i < 24; ++i) origins.push_back(random_point_on_sphere(rng, 7.3f));
+    for (int i = 0; i < 24; ++i)
+      origins.push_back(random_point_on_sphere(rng, 7.3f));
     const auto [rays, leaks] = count_leaks(scene, origins);
     EXPECT_GT(rays, 500u) << spec;
     EXPECT_EQ(leaks, 0u) << spec;

@@ -14,10 +14,11 @@ namespace irgrid {
 
 /// Figures a structure reports about its build.
 struct BuildInfo {
-  double build_ms = 0;                         ///< wall time of the build, allocation included
-  std::map<std::string, double> phases_ms;     ///< per-phase wall times, in build order
-  std::uint64_t memory_bytes = 0;              ///< bytes of the final structure (triangles included)
-  std::map<std::string, std::uint64_t> counts; ///< structure-specific counts (cells, references, ...)
+  double build_ms = 0;                      ///< wall time of the build, allocation included
+  std::map<std::string, double> phases_ms;  ///< per-phase wall times, in build order
+  std::uint64_t memory_bytes = 0;           ///< bytes of the final structure (triangles included)
+  std::map<std::string, std::uint64_t>
+      counts;  ///< structure-specific counts (cells, references, ...)
 };
 
 /// A built acceleration structure over one scene on one backend. Tracing is one call per batch

@@ -25,10 +25,10 @@ inline constexpr std::uint32_t kNoHit = 0xFFFFFFFFu;
 /// Any hit: prim != kNoHit when the ray is occluded; which triangle it names, and t, u, v,
 /// depend on the structure.
 struct Hit {
-  std::uint32_t prim = kNoHit;                         ///< 4 B triangle index, kNoHit on a miss
-  float t = std::numeric_limits<float>::infinity();    ///< 4 B distance in units of |dir|
-  float u = 0;                                         ///< 4 B barycentric of v1
-  float v = 0;                                         ///< 4 B barycentric of v2
+  std::uint32_t prim = kNoHit;                       ///< 4 B triangle index, kNoHit on a miss
+  float t = std::numeric_limits<float>::infinity();  ///< 4 B distance in units of |dir|
+  float u = 0;                                       ///< 4 B barycentric of v1
+  float v = 0;                                       ///< 4 B barycentric of v2
   bool hit() const { return prim != kNoHit; }
 };
 static_assert(sizeof(Hit) == 16 && alignof(Hit) == 4);

@@ -24,9 +24,9 @@ RayKind parse_ray_kind(const std::string& name);
 
 /// Parameters of ray generation. The same parameters always give the same rays.
 struct RayConfig {
-  int width = 1024;            ///< image width for primary-derived kinds
-  int height = 1024;           ///< image height
-  int spp = 4;                 ///< secondary rays per primary hit (ao, diffuse)
+  int width = 1024;                ///< image width for primary-derived kinds
+  int height = 1024;               ///< image height
+  int spp = 4;                     ///< secondary rays per primary hit (ao, diffuse)
   std::uint64_t count = 1u << 20;  ///< number of rays for `random`
   std::uint64_t seed = 0x1a2b3c4d;
 };

@@ -25,14 +25,16 @@ struct Box3f {
 
 /// What a loader read and what it dropped. Dropped triangles are not in Scene::triangles.
 struct SceneReport {
-  std::uint64_t triangles_read = 0;     ///< after fan-triangulating n-gons (an n-gon gives n-2)
-  std::uint64_t vertices_read = 0;      ///< position records in the file
-  std::uint64_t dropped_nonfinite = 0;  ///< a vertex coordinate was NaN or infinite
-  std::uint64_t dropped_bad_index = 0;  ///< a vertex index was out of range
-  std::uint64_t dropped_degenerate = 0; ///< zero area (repeated index, coincident or collinear)
-  std::uint64_t unknown_statements = 0; ///< lines or elements the loader skipped (OBJ only)
-  std::vector<std::string> warnings;    ///< one line each, already naming the file
-  std::uint64_t dropped() const { return dropped_nonfinite + dropped_bad_index + dropped_degenerate; }
+  std::uint64_t triangles_read = 0;      ///< after fan-triangulating n-gons (an n-gon gives n-2)
+  std::uint64_t vertices_read = 0;       ///< position records in the file
+  std::uint64_t dropped_nonfinite = 0;   ///< a vertex coordinate was NaN or infinite
+  std::uint64_t dropped_bad_index = 0;   ///< a vertex index was out of range
+  std::uint64_t dropped_degenerate = 0;  ///< zero area (repeated index, coincident or collinear)
+  std::uint64_t unknown_statements = 0;  ///< lines or elements the loader skipped (OBJ only)
+  std::vector<std::string> warnings;     ///< one line each, already naming the file
+  std::uint64_t dropped() const {
+    return dropped_nonfinite + dropped_bad_index + dropped_degenerate;
+  }
 };
 
 /// An indexed triangle mesh. Triangle i of the structures and of every Hit::prim is

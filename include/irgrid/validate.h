@@ -13,9 +13,9 @@ namespace irgrid {
 
 /// Outcome of comparing hits with the reference on a sample of rays.
 struct Validation {
-  std::uint64_t checked = 0;           ///< rays compared
-  std::uint64_t mismatches = 0;        ///< rays whose hit disagrees with the reference
-  std::vector<std::string> examples;   ///< a few mismatches, described for people
+  std::uint64_t checked = 0;          ///< rays compared
+  std::uint64_t mismatches = 0;       ///< rays whose hit disagrees with the reference
+  std::vector<std::string> examples;  ///< a few mismatches, described for people
 };
 
 /// Compares hits[i] with trace_reference_double on `sample` rays chosen at random (all rays when

@@ -1,8 +1,8 @@
 // The Embree 3 baseline (Debian's libembree): same rays, same oneTBB threads, rtcIntersect1.
 #include <atomic>
 #include <chrono>
-#include <cstring>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include <embree3/rtcore.h>
@@ -32,15 +32,16 @@ class EmbreeCpu final : public Accelerator {
     scene_ = rtcNewScene(device_);
     rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_MEDIUM);
     RTCGeometry geometry = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
-        geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
-        scene.vertices.size()));
-    auto* indices = static_cast<std::uint32_t*>(rtcSetNewGeometryBuffer(
-        geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(std::uint32_t),
-        scene.triangles.size()));
+    auto* vertices = static_cast<float*>(
+        rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                3 * sizeof(float), scene.vertices.size()));
+    auto* indices = static_cast<std::uint32_t*>(
+        rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                3 * sizeof(std::uint32_t), scene.triangles.size()));
     if (!vertices || !indices) throw_embree_error(device_, "allocating geometry buffers");
     std::memcpy(vertices, scene.vertices.data(), scene.vertices.size() * 3 * sizeof(float));
-    std::memcpy(indices, scene.triangles.data(), scene.triangles.size() * 3 * sizeof(std::uint32_t));
+    std::memcpy(indices, scene.triangles.data(),
+                scene.triangles.size() * 3 * sizeof(std::uint32_t));
     rtcCommitGeometry(geometry);
     rtcAttachGeometry(scene_, geometry);
     rtcReleaseGeometry(geometry);
@@ -68,7 +69,8 @@ class EmbreeCpu final : public Accelerator {
       RTCIntersectContext context;
       rtcInitIntersectContext(&context);
       for (std::size_t i = range.begin(); i != range.end(); ++i)
-        hits[i] = query == Query::closest ? intersect(rays[i], context) : occluded(rays[i], context);
+        hits[i] =
+            query == Query::closest ? intersect(rays[i], context) : occluded(rays[i], context);
     });
   }
 

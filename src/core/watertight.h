@@ -17,8 +17,10 @@ namespace irgrid {
 template <typename T>
 IRGRID_HD inline T difference_of_products(T a, T b, T c, T d) {
 #if IRGRID_ON_DEVICE
-  if constexpr (sizeof(T) == 4) return __fsub_rn(__fmul_rn(a, b), __fmul_rn(c, d));
-  else return __dsub_rn(__dmul_rn(a, b), __dmul_rn(c, d));
+  if constexpr (sizeof(T) == 4)
+    return __fsub_rn(__fmul_rn(a, b), __fmul_rn(c, d));
+  else
+    return __dsub_rn(__dmul_rn(a, b), __dmul_rn(c, d));
 #else
   return a * b - c * d;
 #endif

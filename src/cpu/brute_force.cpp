@@ -36,7 +36,8 @@ class BruteForceCpu final : public Accelerator {
   void trace(std::span<const Ray> rays, std::span<Hit> hits, Query query) const override {
     check_trace_spans(rays, hits);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rays.size(), 16), [&](const auto& range) {
-      for (std::size_t i = range.begin(); i != range.end(); ++i) hits[i] = trace_one(rays[i], query);
+      for (std::size_t i = range.begin(); i != range.end(); ++i)
+        hits[i] = trace_one(rays[i], query);
     });
   }
 

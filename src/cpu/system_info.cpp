@@ -10,7 +10,9 @@
 
 namespace irgrid {
 
-const char* version() noexcept { return "0.1.0"; }
+const char* version() noexcept {
+  return "0.1.0";
+}
 
 namespace {
 

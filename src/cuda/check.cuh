@@ -24,8 +24,8 @@ std::string memory_summary();
 
 #define IRGRID_CUDA_CHECK(call) ::irgrid::cuda::check((call), #call, __FILE__, __LINE__)
 /// After a kernel launch: the launch error, then (synchronously) the kernel's own error.
-#define IRGRID_CUDA_CHECK_LAUNCH(name)                                  \
-  do {                                                                  \
-    IRGRID_CUDA_CHECK(cudaGetLastError());                              \
+#define IRGRID_CUDA_CHECK_LAUNCH(name)                                        \
+  do {                                                                        \
+    IRGRID_CUDA_CHECK(cudaGetLastError());                                    \
     ::irgrid::cuda::check(cudaDeviceSynchronize(), name, __FILE__, __LINE__); \
   } while (0)

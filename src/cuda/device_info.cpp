@@ -43,12 +43,12 @@ CudaStatus cuda_status() {
   const cudaError_t result = cudaGetDeviceCount(&count);
   if (result != cudaSuccess) {
     cudaGetLastError();
-    status.status = driver == 0 ? std::string("no CUDA device: no NVIDIA driver is installed")
-                    : result == cudaErrorInsufficientDriver
-                        ? fmt::format("driver too old: driver supports CUDA {}.{}, irgrid needs {}.{}",
-                                      driver / 1000, driver % 1000 / 10, runtime / 1000,
-                                      runtime % 1000 / 10)
-                        : fmt::format("no CUDA device: {}", cudaGetErrorString(result));
+    status.status =
+        driver == 0 ? std::string("no CUDA device: no NVIDIA driver is installed")
+        : result == cudaErrorInsufficientDriver
+            ? fmt::format("driver too old: driver supports CUDA {}.{}, irgrid needs {}.{}",
+                          driver / 1000, driver % 1000 / 10, runtime / 1000, runtime % 1000 / 10)
+            : fmt::format("no CUDA device: {}", cudaGetErrorString(result));
     return status;
   }
   for (int i = 0; i < count; ++i) {
@@ -67,8 +67,8 @@ CudaStatus cuda_status() {
     status.gpus.push_back(gpu);
   }
   if (count > 0) cudaSetDevice(0);
-  status.status = fmt::format("driver CUDA {}.{}, runtime {}.{}", driver / 1000,
-                              driver % 1000 / 10, runtime / 1000, runtime % 1000 / 10);
+  status.status = fmt::format("driver CUDA {}.{}, runtime {}.{}", driver / 1000, driver % 1000 / 10,
+                              runtime / 1000, runtime % 1000 / 10);
   return status;
 }
 

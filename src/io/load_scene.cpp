@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
+#include <new>
 #include <string>
 
 #include "irgrid/error.h"
@@ -53,8 +54,12 @@ Scene load_scene_file(const std::string& path) {
   if (!std::filesystem::exists(path, ec)) throw Error(ErrorCode::io, path + ": no such file");
   const std::string extension =
       lower_case(std::filesystem::path(strip_compression_suffix(path)).extension().string());
-  if (extension == ".obj") return detail::load_obj_file(path);
-  if (extension == ".ply") return detail::load_ply_file(path);
+  try {
+    if (extension == ".obj") return detail::load_obj_file(path);
+    if (extension == ".ply") return detail::load_ply_file(path);
+  } catch (const std::bad_alloc&) {  // tinyobjloader and std containers throw this
+    throw Error(ErrorCode::out_of_memory, path + ": out of memory while loading");
+  }
   throw Error(ErrorCode::io, path + ": unknown scene format '" + extension +
                                  "' (expected .obj or .ply, optionally .gz or .xz compressed)");
 }

@@ -317,8 +317,8 @@ void add_summary_warnings(const std::string& path, const ObjSummary& summary, Sc
                               "' at line " + std::to_string(summary.first_unknown_line) + ")");
 }
 
-// Both passes only read `text`, so the pre-scan runs beside tinyobjloader (about 1.5 s of
-// the Crown's 141 MB). A pre-scan error wins: it names the line more precisely.
+// Both passes only read `text`, so the pre-scan runs beside tinyobjloader (it takes about a
+// second of the Crown's 141 MB). A pre-scan error wins: it names the line more precisely.
 ObjSummary parse_in_parallel(const std::string& path, std::string& text, tinyobj::attrib_t& attrib,
                              std::vector<tinyobj::shape_t>& shapes) {
   ObjSummary summary;

@@ -22,7 +22,8 @@ float Box3f::diagonal() const {
 Box3f Scene::bounds() const {
   Box3f box;
   for (const auto& tri : triangles)
-    for (std::uint32_t index : tri) box.extend(vertices[index]);
+    for (std::uint32_t index : tri)
+      box.extend(vertices[index]);
   return box;
 }
 

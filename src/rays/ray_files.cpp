@@ -25,7 +25,8 @@ static_assert(sizeof(HagridRay) == 24);
 
 void write_bytes(const std::string& path, const void* data, std::size_t bytes) {
   std::ofstream file(path, std::ios::binary | std::ios::trunc);
-  if (!file) throw Error(ErrorCode::io, fmt::format("{}: cannot create: {}", path, std::strerror(errno)));
+  if (!file)
+    throw Error(ErrorCode::io, fmt::format("{}: cannot create: {}", path, std::strerror(errno)));
   file.write(static_cast<const char*>(data), std::streamsize(bytes));
   if (!file.flush()) throw Error(ErrorCode::io, fmt::format("{}: write failed", path));
 }
@@ -33,7 +34,8 @@ void write_bytes(const std::string& path, const void* data, std::size_t bytes) {
 template <typename Record>
 std::vector<Record> read_records(const std::string& path, const char* format_name) {
   std::ifstream file(path, std::ios::binary | std::ios::ate);
-  if (!file) throw Error(ErrorCode::io, fmt::format("{}: cannot open: {}", path, std::strerror(errno)));
+  if (!file)
+    throw Error(ErrorCode::io, fmt::format("{}: cannot open: {}", path, std::strerror(errno)));
   const auto bytes = std::uint64_t(file.tellg());
   if (bytes % sizeof(Record) != 0)
     throw Error(ErrorCode::io,

@@ -43,7 +43,8 @@ Pcg32 ray_generator(std::uint64_t seed, std::uint64_t index) {
 
 void for_each_index(std::size_t count, const auto& body) {
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 1024), [&](const auto& range) {
-    for (std::size_t i = range.begin(); i != range.end(); ++i) body(i);
+    for (std::size_t i = range.begin(); i != range.end(); ++i)
+      body(i);
   });
 }
 
@@ -51,10 +52,14 @@ void for_each_index(std::size_t count, const auto& body) {
 
 const char* to_string(RayKind kind) noexcept {
   switch (kind) {
-    case RayKind::primary: return "primary";
-    case RayKind::ao: return "ao";
-    case RayKind::diffuse: return "diffuse";
-    case RayKind::random: return "random";
+    case RayKind::primary:
+      return "primary";
+    case RayKind::ao:
+      return "ao";
+    case RayKind::diffuse:
+      return "diffuse";
+    case RayKind::random:
+      return "random";
   }
   return "unknown";
 }
@@ -75,7 +80,8 @@ std::vector<Ray> primary_rays(const Camera& camera, int width, int height) {
   const Vec3d right = normalize(cross(forward, Vec3d::from(camera.up)));
   const Vec3d up = cross(right, forward);
   if (!std::isfinite(right.x + right.y + right.z))
-    throw Error(ErrorCode::invalid_argument, "camera: eye equals target, or up is parallel to the view");
+    throw Error(ErrorCode::invalid_argument,
+                "camera: eye equals target, or up is parallel to the view");
   const double tan_half = std::tan(0.5 * camera.fov_deg * kPi / 180.0);
   const double aspect = double(width) / double(height);
   std::vector<Ray> rays(std::size_t(width) * std::size_t(height));

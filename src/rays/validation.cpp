@@ -13,7 +13,8 @@ namespace irgrid {
 namespace {
 
 /// `sample` distinct indices below `count`, ascending (a partial Fisher-Yates shuffle).
-std::vector<std::size_t> sample_indices(std::size_t count, std::uint64_t sample, std::uint64_t seed) {
+std::vector<std::size_t> sample_indices(std::size_t count, std::uint64_t sample,
+                                        std::uint64_t seed) {
   std::vector<std::size_t> indices(count);
   std::iota(indices.begin(), indices.end(), std::size_t(0));
   if (sample >= count) return indices;
@@ -21,7 +22,8 @@ std::vector<std::size_t> sample_indices(std::size_t count, std::uint64_t sample,
   rng.seed(hash64(seed));
   for (std::size_t i = 0; i < sample; ++i) {
     const std::uint64_t span = count - i;
-    const std::size_t j = i + std::size_t((std::uint64_t(rng.next_u32()) << 32 | rng.next_u32()) % span);
+    const std::size_t j =
+        i + std::size_t((std::uint64_t(rng.next_u32()) << 32 | rng.next_u32()) % span);
     std::swap(indices[i], indices[j]);
   }
   indices.resize(sample);
@@ -39,9 +41,10 @@ std::string describe(std::size_t index, const Ray& ray, const Hit& hit, const Hi
   auto show = [](const Hit& h) {
     return h.hit() ? fmt::format("triangle {} at t={:.9g}", h.prim, h.t) : std::string("miss");
   };
-  return fmt::format("ray {} (org {:.9g},{:.9g},{:.9g} dir {:.9g},{:.9g},{:.9g}): got {}, reference {}",
-                     index, ray.org[0], ray.org[1], ray.org[2], ray.dir[0], ray.dir[1], ray.dir[2],
-                     show(hit), show(reference));
+  return fmt::format(
+      "ray {} (org {:.9g},{:.9g},{:.9g} dir {:.9g},{:.9g},{:.9g}): got {}, reference {}", index,
+      ray.org[0], ray.org[1], ray.org[2], ray.dir[0], ray.dir[1], ray.dir[2], show(hit),
+      show(reference));
 }
 
 }  // namespace
@@ -50,7 +53,8 @@ Validation validate_hits(const Scene& scene, std::span<const Ray> rays, std::spa
                          Query query, std::uint64_t sample, std::uint64_t seed) {
   const auto indices = sample_indices(rays.size(), sample, seed);
   std::vector<Ray> picked(indices.size());
-  for (std::size_t k = 0; k < indices.size(); ++k) picked[k] = rays[indices[k]];
+  for (std::size_t k = 0; k < indices.size(); ++k)
+    picked[k] = rays[indices[k]];
   std::vector<Hit> reference(picked.size());
   trace_reference_double(scene, picked, reference, query);
   const double tolerance = 1e-5 * scene.bounds().diagonal();

@@ -13,11 +13,12 @@ namespace irgrid::cli {
 
 void print_bench_table(const BenchResult& r) {
   const auto machine = machine_info();
-  fmt::print("scene {}: {} triangles | structure {} on {} | build {:.2f} ms | memory {:.2f} MiB "
-             "({:.1f} B/triangle)\n",
-             r.scene, r.triangles, r.structure, r.backend, r.build.build_ms,
-             r.build.memory_bytes / 1048576.0,
-             r.triangles ? double(r.build.memory_bytes) / double(r.triangles) : 0.0);
+  fmt::print(
+      "scene {}: {} triangles | structure {} on {} | build {:.2f} ms | memory {:.2f} MiB "
+      "({:.1f} B/triangle)\n",
+      r.scene, r.triangles, r.structure, r.backend, r.build.build_ms,
+      r.build.memory_bytes / 1048576.0,
+      r.triangles ? double(r.build.memory_bytes) / double(r.triangles) : 0.0);
   fmt::print("machine: {}, {} threads{}\n", machine.cpu_model, machine.tbb_threads,
              machine.gpu.empty() ? "" : ", GPU " + machine.gpu);
   fmt::print("{:>4}  {:<8} {:>10} {:>10} {:>10} {:>10} {:>9} {:>10}\n", "view", "kind", "rays",

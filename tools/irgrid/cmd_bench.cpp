@@ -32,7 +32,8 @@ double median(std::vector<double> values) {
 }
 
 /// Builds once to warm up, then `repeat` more times; keeps the last and the median time.
-std::unique_ptr<Accelerator> timed_build(const Scene& scene, const BenchOptions& o, BuildInfo& info) {
+std::unique_ptr<Accelerator> timed_build(const Scene& scene, const BenchOptions& o,
+                                         BuildInfo& info) {
   AcceleratorOptions options;
   options.backend = o.backend;
   auto accelerator = make_accelerator(scene, o.structure, options);
@@ -50,7 +51,8 @@ std::unique_ptr<Accelerator> timed_build(const Scene& scene, const BenchOptions&
 BenchRun measure(const Scene& scene, const Accelerator& accelerator, std::span<const Ray> rays,
                  Query query, const BenchOptions& o, BenchRun run) {
   std::vector<Hit> hits(rays.size());
-  trace_with_progress(accelerator, rays, hits, query, fmt::format("{} view {} warm-up", run.kind, run.view));
+  trace_with_progress(accelerator, rays, hits, query,
+                      fmt::format("{} view {} warm-up", run.kind, run.view));
   std::vector<double> times;
   for (int i = 0; i < o.repeat; ++i) {
     const auto start = std::chrono::steady_clock::now();
@@ -58,7 +60,8 @@ BenchRun measure(const Scene& scene, const Accelerator& accelerator, std::span<c
     times.push_back(milliseconds_since(start));
   }
   run.rays = rays.size();
-  run.hits = std::size_t(std::count_if(hits.begin(), hits.end(), [](const Hit& h) { return h.hit(); }));
+  run.hits =
+      std::size_t(std::count_if(hits.begin(), hits.end(), [](const Hit& h) { return h.hit(); }));
   run.median_ms = median(times);
   run.mrays_per_s = run.median_ms > 0 ? double(run.rays) / run.median_ms / 1000.0 : 0.0;
   if (o.validate > 0) {
@@ -74,7 +77,8 @@ BenchRun measure(const Scene& scene, const Accelerator& accelerator, std::span<c
 std::vector<int> chosen_views(const BenchOptions& o, std::size_t available) {
   std::vector<int> views;
   if (o.views.empty()) {
-    for (std::size_t i = 0; i < available; ++i) views.push_back(int(i));
+    for (std::size_t i = 0; i < available; ++i)
+      views.push_back(int(i));
     return views;
   }
   for (const auto& part : split_list(o.views)) {
@@ -92,7 +96,8 @@ void run_standard_kinds(const Scene& scene, const Accelerator& accelerator, cons
                         BenchResult& result) {
   const auto cameras = scene_views(scene, o.views_file);
   std::vector<RayKind> kinds;
-  for (const auto& name : split_list(o.kinds)) kinds.push_back(parse_ray_kind(name));
+  for (const auto& name : split_list(o.kinds))
+    kinds.push_back(parse_ray_kind(name));
   // Secondary rays come from the primary hits of one fixed structure, so that every structure
   // under test gets the same rays.
   std::unique_ptr<Accelerator> generator;
@@ -103,7 +108,8 @@ void run_standard_kinds(const Scene& scene, const Accelerator& accelerator, cons
   }
   for (int view : chosen_views(o, cameras.size()))
     for (RayKind kind : kinds) {
-      const auto rays = generate_rays(scene, cameras[std::size_t(view)], kind, o.config, ray_tracer);
+      const auto rays =
+          generate_rays(scene, cameras[std::size_t(view)], kind, o.config, ray_tracer);
       const Query query = kind == RayKind::ao ? Query::any : Query::closest;
       result.runs.push_back(measure(scene, accelerator, rays, query, o, {to_string(kind), view}));
     }
@@ -112,22 +118,24 @@ void run_standard_kinds(const Scene& scene, const Accelerator& accelerator, cons
 int run_bench(BenchOptions o) {
   if (o.repeat < 1) throw Error(ErrorCode::invalid_argument, "--repeat must be at least 1");
   if (o.structure.empty()) o.structure = default_structure();
-  if (o.config.count == 0) o.config.count = std::uint64_t(o.config.width) * std::uint64_t(o.config.height);
+  if (o.config.count == 0)
+    o.config.count = std::uint64_t(o.config.width) * std::uint64_t(o.config.height);
   const Scene scene = load_scene_reporting(o.scene);
   BenchResult result{scene.name, scene.triangle_count(), o.structure, "", {}, {}};
   const auto accelerator = timed_build(scene, o, result.build);
   result.backend = accelerator->backend();
   if (!o.rays_file.empty()) {
     const auto rays = read_rays(o.rays_file, parse_ray_format(o.format));
-    result.runs.push_back(measure(scene, *accelerator, rays, o.any_hit ? Query::any : Query::closest,
-                                  o, {"file", 0}));
+    result.runs.push_back(measure(scene, *accelerator, rays,
+                                  o.any_hit ? Query::any : Query::closest, o, {"file", 0}));
   } else {
     run_standard_kinds(scene, *accelerator, o, result);
   }
   print_bench_table(result);
   if (!o.json.empty()) write_bench_json(result, o.json);
   std::uint64_t mismatches = 0;
-  for (const auto& run : result.runs) mismatches += run.mismatches;
+  for (const auto& run : result.runs)
+    mismatches += run.mismatches;
   if (mismatches == 0) return 0;
   fmt::print(stderr, "irgrid: validation failed: {} mismatching rays\n", mismatches);
   return 1;
@@ -138,7 +146,8 @@ int run_bench(BenchOptions o) {
 void add_bench_command(CLI::App& app) {
   auto o = std::make_shared<BenchOptions>();
   o->config.count = 0;  // 0: as many random rays as pixels
-  auto* cmd = app.add_subcommand("bench", "Build, trace the standard rays, validate, report MRays/s");
+  auto* cmd =
+      app.add_subcommand("bench", "Build, trace the standard rays, validate, report MRays/s");
   cmd->add_option("scene", o->scene, "Scene file or builtin:NAME[:N]")->required();
   cmd->add_option("--structure", o->structure, "Structure (default: fastest built in)");
   cmd->add_option("--backend", o->backend, "cpu, cuda or auto")->capture_default_str();
@@ -147,14 +156,18 @@ void add_bench_command(CLI::App& app) {
   cmd->add_option("--views-file", o->views_file, "views.json to take the cameras from");
   cmd->add_option("--spp", o->config.spp, "Secondary rays per primary hit")->capture_default_str();
   cmd->add_option("--width", o->config.width, "Image width of primary rays")->capture_default_str();
-  cmd->add_option("--height", o->config.height, "Image height of primary rays")->capture_default_str();
+  cmd->add_option("--height", o->config.height, "Image height of primary rays")
+      ->capture_default_str();
   cmd->add_option("--count", o->config.count, "Random rays (default: width x height)");
   cmd->add_option("--seed", o->config.seed, "Random seed")->capture_default_str();
   cmd->add_option("--rays", o->rays_file, "Trace the rays of this file instead (kind 'file')");
-  cmd->add_option("--format", o->format, "Format of --rays: irgrid or hagrid")->capture_default_str();
+  cmd->add_option("--format", o->format, "Format of --rays: irgrid or hagrid")
+      ->capture_default_str();
   cmd->add_flag("--any-hit", o->any_hit, "With --rays: occlusion queries");
-  cmd->add_option("--repeat", o->repeat, "Timed repetitions (median reported)")->capture_default_str();
-  cmd->add_option("--validate", o->validate, "Rays per run checked against double brute force (0: off)")
+  cmd->add_option("--repeat", o->repeat, "Timed repetitions (median reported)")
+      ->capture_default_str();
+  cmd->add_option("--validate", o->validate,
+                  "Rays per run checked against double brute force (0: off)")
       ->capture_default_str();
   cmd->add_option("--json", o->json, "Write results as JSON to this file");
   cmd->callback([o] {

@@ -22,12 +22,13 @@ nlohmann::json system_json() {
   const auto cuda = cuda_status();
   nlohmann::json gpus = nlohmann::json::array();
   for (const auto& gpu : cuda.gpus)
-    gpus.push_back({{"index", gpu.index},
-                    {"name", gpu.name},
-                    {"memory_bytes", gpu.memory_bytes},
-                    {"free_bytes", gpu.free_bytes},
-                    {"compute_capability", fmt::format("{}.{}", gpu.compute_major, gpu.compute_minor)},
-                    {"multiprocessors", gpu.multiprocessors}});
+    gpus.push_back(
+        {{"index", gpu.index},
+         {"name", gpu.name},
+         {"memory_bytes", gpu.memory_bytes},
+         {"free_bytes", gpu.free_bytes},
+         {"compute_capability", fmt::format("{}.{}", gpu.compute_major, gpu.compute_minor)},
+         {"multiprocessors", gpu.multiprocessors}});
   return {{"version", version()},
           {"backends", cuda.compiled ? nlohmann::json{"cpu", "cuda"} : nlohmann::json{"cpu"}},
           {"structures", available_structures()},
@@ -48,9 +49,10 @@ nlohmann::json scene_json(const Scene& scene) {
           {"vertices", r.vertices_read},
           {"bounds", {{"min", box.lo}, {"max", box.hi}}},
           {"diagonal", box.diagonal()},
-          {"dropped", {{"degenerate", r.dropped_degenerate},
-                       {"nonfinite", r.dropped_nonfinite},
-                       {"bad_index", r.dropped_bad_index}}},
+          {"dropped",
+           {{"degenerate", r.dropped_degenerate},
+            {"nonfinite", r.dropped_nonfinite},
+            {"bad_index", r.dropped_bad_index}}},
           {"unknown_statements", r.unknown_statements},
           {"views", scene_views(scene).size()}};
 }
@@ -65,7 +67,8 @@ void print_system(const nlohmann::json& s) {
   for (const auto& gpu : s["gpus"])
     fmt::print("gpu {}:      {}, {:.1f} GiB ({:.1f} GiB free), compute capability {}, {} SMs\n",
                gpu["index"].get<int>(), gpu["name"].get<std::string>(),
-               gpu["memory_bytes"].get<double>() / (1 << 30), gpu["free_bytes"].get<double>() / (1 << 30),
+               gpu["memory_bytes"].get<double>() / (1 << 30),
+               gpu["free_bytes"].get<double>() / (1 << 30),
                gpu["compute_capability"].get<std::string>(), gpu["multiprocessors"].get<int>());
 }
 
@@ -105,7 +108,8 @@ void run_info(const InfoOptions& options) {
 
 void add_info_command(CLI::App& app) {
   auto options = std::make_shared<InfoOptions>();
-  auto* cmd = app.add_subcommand("info", "Version, backends, GPUs, threads; with a scene: its figures");
+  auto* cmd =
+      app.add_subcommand("info", "Version, backends, GPUs, threads; with a scene: its figures");
   cmd->add_option("scene", options->scene, "Scene file or builtin:NAME[:N]");
   cmd->add_flag("--json", options->json, "Print JSON on stdout instead of text");
   cmd->callback([options] { run_info(*options); });

@@ -9,7 +9,8 @@ namespace irgrid::cli {
 namespace {
 
 struct RaysOptions {
-  std::string scene, kind = "primary", output, format = "irgrid", views_file, structure, backend = "cpu";
+  std::string scene, kind = "primary", output, format = "irgrid", views_file, structure,
+                     backend = "cpu";
   int view = 0;
   RayConfig config;
 };
@@ -21,7 +22,8 @@ void run_rays(const RaysOptions& o) {
   const Camera camera = pick_view(scene, o.view, o.views_file);
   std::unique_ptr<Accelerator> tracer;
   if (kind == RayKind::ao || kind == RayKind::diffuse)
-    tracer = build_reporting(scene, o.structure.empty() ? default_structure() : o.structure, o.backend);
+    tracer =
+        build_reporting(scene, o.structure.empty() ? default_structure() : o.structure, o.backend);
   const auto rays = generate_rays(scene, camera, kind, o.config, tracer.get());
   write_rays(o.output, rays, format);
   fmt::print("wrote {} {} rays ({} format, {} bytes each) to {}\n", rays.size(), o.kind, o.format,
@@ -32,20 +34,25 @@ void run_rays(const RaysOptions& o) {
 
 void add_rays_command(CLI::App& app) {
   auto o = std::make_shared<RaysOptions>();
-  auto* cmd = app.add_subcommand("rays", "Generate standard rays (primary, ao, diffuse, random) to a file");
+  auto* cmd =
+      app.add_subcommand("rays", "Generate standard rays (primary, ao, diffuse, random) to a file");
   cmd->set_help_flag("--help", "Print this help message and exit");
   cmd->add_option("scene", o->scene, "Scene file or builtin:NAME[:N]")->required();
   cmd->add_option("--kind", o->kind, "primary, ao, diffuse or random")->capture_default_str();
-  cmd->add_option("--view", o->view, "Index of the camera in the scene's views")->capture_default_str();
+  cmd->add_option("--view", o->view, "Index of the camera in the scene's views")
+      ->capture_default_str();
   cmd->add_option("--views", o->views_file, "views.json to take the cameras from");
-  cmd->add_option("--spp", o->config.spp, "Secondary rays per primary hit (ao, diffuse)")->capture_default_str();
+  cmd->add_option("--spp", o->config.spp, "Secondary rays per primary hit (ao, diffuse)")
+      ->capture_default_str();
   cmd->add_option("--count", o->config.count, "Number of random rays")->capture_default_str();
   cmd->add_option("-w,--width", o->config.width, "Image width")->capture_default_str();
   cmd->add_option("-h,--height", o->config.height, "Image height")->capture_default_str();
   cmd->add_option("--seed", o->config.seed, "Random seed")->capture_default_str();
   cmd->add_option("-o,--output", o->output, "Ray file to write")->required();
-  cmd->add_option("--format", o->format, "irgrid (32 B/ray) or hagrid (24 B/ray)")->capture_default_str();
-  cmd->add_option("--structure", o->structure, "Structure that traces the primary rays of ao/diffuse");
+  cmd->add_option("--format", o->format, "irgrid (32 B/ray) or hagrid (24 B/ray)")
+      ->capture_default_str();
+  cmd->add_option("--structure", o->structure,
+                  "Structure that traces the primary rays of ao/diffuse");
   cmd->add_option("--backend", o->backend, "cpu, cuda or auto")->capture_default_str();
   cmd->callback([o] { run_rays(*o); });
 }

@@ -30,8 +30,9 @@ std::uint8_t to_byte(float value) {
 }
 
 Rgb background(const Ray& ray) {
-  const float up = 0.5f + 0.5f * ray.dir[1] / std::sqrt(ray.dir[0] * ray.dir[0] +
-                                                        ray.dir[1] * ray.dir[1] + ray.dir[2] * ray.dir[2]);
+  const float up = 0.5f + 0.5f * ray.dir[1] /
+                              std::sqrt(ray.dir[0] * ray.dir[0] + ray.dir[1] * ray.dir[1] +
+                                        ray.dir[2] * ray.dir[2]);
   return Rgb{0.05f, 0.06f, 0.09f} * (1 - up) + Rgb{0.18f, 0.22f, 0.32f} * up;
 }
 
@@ -58,7 +59,8 @@ Rgb shade(const std::string& mode, const Scene& scene, const Ray& ray, const Hit
 
 /// Fraction of unoccluded ambient-occlusion rays per pixel.
 std::vector<float> ambient_occlusion(const Scene& scene, const Accelerator& tracer,
-                                     std::span<const Ray> primary, std::span<const Hit> hits, int spp) {
+                                     std::span<const Ray> primary, std::span<const Hit> hits,
+                                     int spp) {
   const auto ao_rays = secondary_rays(scene, primary, hits, RayKind::ao, spp, 0x5eed);
   std::vector<Hit> occlusion(ao_rays.size());
   trace_with_progress(tracer, ao_rays, occlusion, Query::any, "ambient occlusion");
@@ -67,7 +69,8 @@ std::vector<float> ambient_occlusion(const Scene& scene, const Accelerator& trac
   for (std::size_t i = 0; i < primary.size(); ++i) {
     if (!hits[i].hit()) continue;
     int free = 0;
-    for (int s = 0; s < spp; ++s) free += !occlusion[next++].hit();
+    for (int s = 0; s < spp; ++s)
+      free += !occlusion[next++].hit();
     visibility[i] = float(free) / float(spp);
   }
   return visibility;
@@ -77,8 +80,8 @@ Camera choose_camera(const Scene& scene, const RenderOptions& o) {
   if (o.eye.empty() != o.target.empty())
     throw Error(ErrorCode::invalid_argument, "--eye and --target go together");
   if (o.eye.empty()) return pick_view(scene, o.view, o.views_file);
-  return Camera{parse_vec3(o.eye, "--eye"), parse_vec3(o.target, "--target"), parse_vec3(o.up, "--up"),
-                o.fov};
+  return Camera{parse_vec3(o.eye, "--eye"), parse_vec3(o.target, "--target"),
+                parse_vec3(o.up, "--up"), o.fov};
 }
 
 void run_render(const RenderOptions& o) {
@@ -87,8 +90,8 @@ void run_render(const RenderOptions& o) {
                 fmt::format("--mode '{}': expected shaded, normal, primid or ao", o.mode));
   const Scene scene = load_scene_reporting(o.scene);
   const Camera camera = choose_camera(scene, o);
-  const auto tracer = build_reporting(scene, o.structure.empty() ? default_structure() : o.structure,
-                                      o.backend);
+  const auto tracer =
+      build_reporting(scene, o.structure.empty() ? default_structure() : o.structure, o.backend);
   const auto rays = primary_rays(camera, o.width, o.height);
   std::vector<Hit> hits(rays.size());
   trace_with_progress(*tracer, rays, hits, Query::closest, "primary rays");
@@ -98,7 +101,8 @@ void run_render(const RenderOptions& o) {
   tbb::parallel_for(std::size_t(0), rays.size(), [&](std::size_t i) {
     Rgb c = o.mode == "ao" ? (hits[i].hit() ? Rgb{1, 1, 1} * visibility[i] : background(rays[i]))
                            : shade(o.mode, scene, rays[i], hits[i]);
-    pixels[3 * i] = to_byte(c.x), pixels[3 * i + 1] = to_byte(c.y), pixels[3 * i + 2] = to_byte(c.z);
+    pixels[3 * i] = to_byte(c.x), pixels[3 * i + 1] = to_byte(c.y),
+               pixels[3 * i + 2] = to_byte(c.z);
   });
   write_png(o.output, o.width, o.height, pixels);
   fmt::print("wrote {}x{} {} image to {}\n", o.width, o.height, o.mode, o.output);
@@ -112,7 +116,8 @@ void add_render_command(CLI::App& app) {
   cmd->set_help_flag("--help", "Print this help message and exit");
   cmd->add_option("scene", o->scene, "Scene file or builtin:NAME[:N]")->required();
   cmd->add_option("-o,--output", o->output, "PNG file to write")->required();
-  cmd->add_option("--view", o->view, "Index of the camera in the scene's views")->capture_default_str();
+  cmd->add_option("--view", o->view, "Index of the camera in the scene's views")
+      ->capture_default_str();
   cmd->add_option("--views", o->views_file, "views.json to take the cameras from");
   cmd->add_option("--eye", o->eye, "Camera position x,y,z (with --target)");
   cmd->add_option("--target", o->target, "Point looked at x,y,z");
@@ -121,8 +126,10 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("-w,--width", o->width, "Image width")->capture_default_str();
   cmd->add_option("-h,--height", o->height, "Image height")->capture_default_str();
   cmd->add_option("--mode", o->mode, "shaded, normal, primid or ao")->capture_default_str();
-  cmd->add_option("--spp", o->spp, "Ambient-occlusion rays per pixel (mode ao)")->capture_default_str();
-  cmd->add_option("--structure", o->structure, "Structure to trace with (default: fastest built in)");
+  cmd->add_option("--spp", o->spp, "Ambient-occlusion rays per pixel (mode ao)")
+      ->capture_default_str();
+  cmd->add_option("--structure", o->structure,
+                  "Structure to trace with (default: fastest built in)");
   cmd->add_option("--backend", o->backend, "cpu, cuda or auto")->capture_default_str();
   cmd->callback([o] { run_render(*o); });
 }

@@ -35,16 +35,18 @@ void run_trace(const TraceOptions& o) {
   const float inf = std::numeric_limits<float>::infinity();
   auto rays = read_rays(o.rays_file, format, o.tmin.value_or(0.f), o.tmax.value_or(inf));
   if (format == RayFormat::irgrid && (o.tmin || o.tmax))
-    for (Ray& ray : rays) ray.tmin = o.tmin.value_or(ray.tmin), ray.tmax = o.tmax.value_or(ray.tmax);
+    for (Ray& ray : rays)
+      ray.tmin = o.tmin.value_or(ray.tmin), ray.tmax = o.tmax.value_or(ray.tmax);
   const Scene scene = load_scene_reporting(o.scene);
-  const auto tracer = build_reporting(scene, o.structure.empty() ? default_structure() : o.structure,
-                                      o.backend);
+  const auto tracer =
+      build_reporting(scene, o.structure.empty() ? default_structure() : o.structure, o.backend);
   std::vector<Hit> hits(rays.size());
   const auto start = std::chrono::steady_clock::now();
   trace_with_progress(*tracer, rays, hits, o.any_hit ? Query::any : Query::closest, "tracing");
   const double ms = milliseconds_since(start);
   std::size_t hit_count = 0;
-  for (const Hit& hit : hits) hit_count += hit.hit();
+  for (const Hit& hit : hits)
+    hit_count += hit.hit();
   to_file_convention(scene, hits, o.any_hit);
   write_hits(o.output, hits);
   fmt::print("traced {} rays ({} {}) in {:.1f} ms ({:.2f} MRays/s), wrote {} hits to {}\n",
@@ -56,15 +58,19 @@ void run_trace(const TraceOptions& o) {
 
 void add_trace_command(CLI::App& app) {
   auto o = std::make_shared<TraceOptions>();
-  auto* cmd = app.add_subcommand("trace", "Trace rays from a file; write 16-byte hits (prim, t, u, v)");
+  auto* cmd =
+      app.add_subcommand("trace", "Trace rays from a file; write 16-byte hits (prim, t, u, v)");
   cmd->add_option("scene", o->scene, "Scene file or builtin:NAME[:N]")->required();
   cmd->add_option("--rays", o->rays_file, "Ray file")->required();
-  cmd->add_option("--format", o->format, "irgrid (32 B/ray) or hagrid (24 B/ray)")->capture_default_str();
+  cmd->add_option("--format", o->format, "irgrid (32 B/ray) or hagrid (24 B/ray)")
+      ->capture_default_str();
   cmd->add_option("--tmin", o->tmin, "Ray start for all rays (hagrid: default 0)");
   cmd->add_option("--tmax", o->tmax, "Ray end for all rays (hagrid: default infinity)");
-  cmd->add_flag("--any-hit", o->any_hit, "Occlusion query: t = 0 when occluded, infinity otherwise");
+  cmd->add_flag("--any-hit", o->any_hit,
+                "Occlusion query: t = 0 when occluded, infinity otherwise");
   cmd->add_option("-o,--output", o->output, "Hit file to write")->required();
-  cmd->add_option("--structure", o->structure, "Structure to trace with (default: fastest built in)");
+  cmd->add_option("--structure", o->structure,
+                  "Structure to trace with (default: fastest built in)");
   cmd->add_option("--backend", o->backend, "cpu, cuda or auto")->capture_default_str();
   cmd->callback([o] { run_trace(*o); });
 }

@@ -13,13 +13,15 @@
 namespace irgrid::cli {
 
 double milliseconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
 }
 
 Scene load_scene_reporting(const std::string& spec) {
   const auto start = std::chrono::steady_clock::now();
   Scene scene = load_scene(spec);
-  for (const auto& warning : scene.report.warnings) fmt::print(stderr, "warning: {}\n", warning);
+  for (const auto& warning : scene.report.warnings)
+    fmt::print(stderr, "warning: {}\n", warning);
   fmt::print(stderr, "loaded {}: {} triangles", spec, scene.triangle_count());
   if (scene.report.dropped() > 0) fmt::print(stderr, " ({} dropped)", scene.report.dropped());
   fmt::print(stderr, " in {:.2f} s\n", milliseconds_since(start) / 1000);

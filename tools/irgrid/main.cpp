@@ -9,8 +9,9 @@
 #include "irgrid/system.h"
 
 int main(int argc, char** argv) {
-  CLI::App app{"irgrid: irregular grids (Perard-Gayot et al., EG 2017) for fast ray tracing.\n"
-               "Scenes: .obj or .ply files (optionally .gz/.xz) or builtin:NAME[:N]."};
+  CLI::App app{
+      "irgrid: irregular grids (Perard-Gayot et al., EG 2017) for fast ray tracing.\n"
+      "Scenes: .obj or .ply files (optionally .gz/.xz) or builtin:NAME[:N]."};
   app.set_version_flag("--version", irgrid::version());
   app.require_subcommand(1, 1);
   irgrid::cli::add_info_command(app);

@@ -17,7 +17,9 @@ Progress::Progress(std::string label, std::uint64_t total)
       start_(std::chrono::steady_clock::now()),
       last_draw_(start_) {}
 
-Progress::~Progress() { done(); }
+Progress::~Progress() {
+  done();
+}
 
 void Progress::advance(std::uint64_t amount) {
   current_ += amount;

@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# The main job: set up, build, then benchmark (validated) and render a built-in scene.
+# Usage: bash scripts/main-job.sh [SCENE]   (default builtin:cornell)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scene=${1:-builtin:cornell}
+bash scripts/install-deps.sh
+bash scripts/build.sh
+build_dir=${IRGRID_BUILD_DIR:-build}
+"$build_dir/irgrid" info
+"$build_dir/irgrid" bench "$scene" --validate 10000 --json "$build_dir/bench.json"
+"$build_dir/irgrid" render "$scene" --view 0 -o "$build_dir/render.png"
+echo "main-job: results in $build_dir/bench.json, picture in $build_dir/render.png"

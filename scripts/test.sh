@@ -1,0 +1,9 @@
+#!/usr/bin/env bash
+# Sets up, builds and runs every test (GPU tests skip cleanly without a GPU).
+# Tests reading ../shared/scenes skip when that folder is absent.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/install-deps.sh
+bash scripts/build.sh -DIRGRID_BUILD_TESTS=ON
+build_dir=${IRGRID_BUILD_DIR:-build}
+ctest --test-dir "$build_dir" --output-on-failure --parallel "$(nproc)" --timeout 900
