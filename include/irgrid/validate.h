@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -18,10 +19,33 @@ struct Validation {
   std::vector<std::string> examples;  ///< a few mismatches, described for people
 };
 
-/// Compares hits[i] with trace_reference_double on `sample` rays chosen at random (all rays when
+/// The double-precision watertight reference, fast: it returns exactly what
+/// trace_reference_double returns (closest hit: the smallest t, ties to the smallest triangle
+/// id; any hit: whether any triangle is hit), but skips triangles through a bounding-volume
+/// hierarchy whose boxes are padded so that no box a ray touches is ever culled.
+class ReferenceTracer {
+ public:
+  explicit ReferenceTracer(const Scene& scene);
+  ~ReferenceTracer();
+  ReferenceTracer(const ReferenceTracer&) = delete;
+  ReferenceTracer& operator=(const ReferenceTracer&) = delete;
+  /// Traces rays[i] into hits[i] for every i, in parallel.
+  void trace(std::span<const Ray> rays, std::span<Hit> hits, Query query) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Compares hits[i] with the double-precision reference on `sample` rays chosen at random (all rays when
 /// sample >= rays.size()), with a fixed seed. A closest hit agrees when both miss, or both hit
 /// and either the triangle ids match or the distances differ by at most 1e-5 x scene diagonal
 /// (ties on shared edges); an any-hit agrees when both say occluded or both say free.
+Validation validate_hits(const ReferenceTracer& reference, const Scene& scene,
+                         std::span<const Ray> rays, std::span<const Hit> hits, Query query,
+                         std::uint64_t sample, std::uint64_t seed = 7);
+
+/// The same, building the ReferenceTracer for this one call.
 Validation validate_hits(const Scene& scene, std::span<const Ray> rays, std::span<const Hit> hits,
                          Query query, std::uint64_t sample, std::uint64_t seed = 7);
 

@@ -6,6 +6,7 @@
 #include <limits>
 
 #include <embree3/rtcore.h>
+#include <xmmintrin.h>
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -15,6 +16,21 @@
 
 namespace irgrid {
 namespace {
+
+/// Embree asks for flush-to-zero and denormals-are-zero on its calling threads ("severe
+/// performance impact" otherwise); set them for the scope of its calls only, so the rest of
+/// the process keeps IEEE behaviour.
+class DenormalsAreZero {
+ public:
+  DenormalsAreZero() : saved_(_mm_getcsr()) { _mm_setcsr(saved_ | kFlushToZero | kDenormalsAreZero); }
+  ~DenormalsAreZero() { _mm_setcsr(saved_); }
+  DenormalsAreZero(const DenormalsAreZero&) = delete;
+  DenormalsAreZero& operator=(const DenormalsAreZero&) = delete;
+
+ private:
+  static constexpr unsigned kFlushToZero = 0x8000, kDenormalsAreZero = 0x0040;
+  unsigned saved_;
+};
 
 [[noreturn]] void throw_embree_error(RTCDevice device, const char* what) {
   const RTCError code = rtcGetDeviceError(device);
@@ -45,7 +61,10 @@ class EmbreeCpu final : public Accelerator {
     rtcCommitGeometry(geometry);
     rtcAttachGeometry(scene_, geometry);
     rtcReleaseGeometry(geometry);
-    rtcCommitScene(scene_);
+    {
+      const DenormalsAreZero denormals_are_zero;  // the build runs on this thread and TBB's
+      rtcCommitScene(scene_);
+    }
     if (rtcGetDeviceError(device_) != RTC_ERROR_NONE) throw_embree_error(device_, "rtcCommitScene");
     info_.build_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
@@ -66,6 +85,7 @@ class EmbreeCpu final : public Accelerator {
   void trace(std::span<const Ray> rays, std::span<Hit> hits, Query query) const override {
     check_trace_spans(rays, hits);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rays.size(), 64), [&](const auto& range) {
+      const DenormalsAreZero denormals_are_zero;
       RTCIntersectContext context;
       rtcInitIntersectContext(&context);
       for (std::size_t i = range.begin(); i != range.end(); ++i)

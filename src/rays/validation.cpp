@@ -51,12 +51,18 @@ std::string describe(std::size_t index, const Ray& ray, const Hit& hit, const Hi
 
 Validation validate_hits(const Scene& scene, std::span<const Ray> rays, std::span<const Hit> hits,
                          Query query, std::uint64_t sample, std::uint64_t seed) {
+  return validate_hits(ReferenceTracer(scene), scene, rays, hits, query, sample, seed);
+}
+
+Validation validate_hits(const ReferenceTracer& reference_tracer, const Scene& scene,
+                         std::span<const Ray> rays, std::span<const Hit> hits, Query query,
+                         std::uint64_t sample, std::uint64_t seed) {
   const auto indices = sample_indices(rays.size(), sample, seed);
   std::vector<Ray> picked(indices.size());
   for (std::size_t k = 0; k < indices.size(); ++k)
     picked[k] = rays[indices[k]];
   std::vector<Hit> reference(picked.size());
-  trace_reference_double(scene, picked, reference, query);
+  reference_tracer.trace(picked, reference, query);
   const double tolerance = 1e-5 * scene.bounds().diagonal();
   Validation result;
   result.checked = indices.size();

@@ -48,8 +48,8 @@ std::unique_ptr<Accelerator> timed_build(const Scene& scene, const BenchOptions&
   return accelerator;
 }
 
-BenchRun measure(const Scene& scene, const Accelerator& accelerator, std::span<const Ray> rays,
-                 Query query, const BenchOptions& o, BenchRun run) {
+BenchRun measure(const Scene& scene, const ReferenceTracer& reference, const Accelerator& accelerator,
+                 std::span<const Ray> rays, Query query, const BenchOptions& o, BenchRun run) {
   std::vector<Hit> hits(rays.size());
   trace_with_progress(accelerator, rays, hits, query,
                       fmt::format("{} view {} warm-up", run.kind, run.view));
@@ -65,7 +65,7 @@ BenchRun measure(const Scene& scene, const Accelerator& accelerator, std::span<c
   run.median_ms = median(times);
   run.mrays_per_s = run.median_ms > 0 ? double(run.rays) / run.median_ms / 1000.0 : 0.0;
   if (o.validate > 0) {
-    const auto validation = validate_hits(scene, rays, hits, query, o.validate);
+    const auto validation = validate_hits(reference, scene, rays, hits, query, o.validate);
     run.checked = validation.checked;
     run.mismatches = validation.mismatches;
     for (const auto& example : validation.examples)
@@ -92,8 +92,8 @@ std::vector<int> chosen_views(const BenchOptions& o, std::size_t available) {
   return views;
 }
 
-void run_standard_kinds(const Scene& scene, const Accelerator& accelerator, const BenchOptions& o,
-                        BenchResult& result) {
+void run_standard_kinds(const Scene& scene, const ReferenceTracer& reference,
+                        const Accelerator& accelerator, const BenchOptions& o, BenchResult& result) {
   const auto cameras = scene_views(scene, o.views_file);
   std::vector<RayKind> kinds;
   for (const auto& name : split_list(o.kinds))
@@ -111,7 +111,8 @@ void run_standard_kinds(const Scene& scene, const Accelerator& accelerator, cons
       const auto rays =
           generate_rays(scene, cameras[std::size_t(view)], kind, o.config, ray_tracer);
       const Query query = kind == RayKind::ao ? Query::any : Query::closest;
-      result.runs.push_back(measure(scene, accelerator, rays, query, o, {to_string(kind), view}));
+      result.runs.push_back(
+          measure(scene, reference, accelerator, rays, query, o, {to_string(kind), view}));
     }
 }
 
@@ -124,12 +125,13 @@ int run_bench(BenchOptions o) {
   BenchResult result{scene.name, scene.triangle_count(), o.structure, "", {}, {}};
   const auto accelerator = timed_build(scene, o, result.build);
   result.backend = accelerator->backend();
+  const ReferenceTracer reference(scene);
   if (!o.rays_file.empty()) {
     const auto rays = read_rays(o.rays_file, parse_ray_format(o.format));
-    result.runs.push_back(measure(scene, *accelerator, rays,
+    result.runs.push_back(measure(scene, reference, *accelerator, rays,
                                   o.any_hit ? Query::any : Query::closest, o, {"file", 0}));
   } else {
-    run_standard_kinds(scene, *accelerator, o, result);
+    run_standard_kinds(scene, reference, *accelerator, o, result);
   }
   print_bench_table(result);
   if (!o.json.empty()) write_bench_json(result, o.json);
