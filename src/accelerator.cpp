@@ -2,6 +2,8 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <map>
+
 #include "cpu/structures.h"
 #include "irgrid/error.h"
 #include "irgrid/system.h"
@@ -16,9 +18,12 @@ void check_trace_spans(std::span<const Ray> rays, std::span<Hit> hits) {
 
 std::vector<std::string> available_structures() {
   std::vector<std::string> names;
+  names.push_back("irregular");
 #if IRGRID_HAS_EMBREE
   names.push_back("embree");
 #endif
+  names.push_back("two-level");
+  names.push_back("uniform");
   names.push_back("brute");
   return names;
 }
@@ -50,6 +55,18 @@ std::unique_ptr<Accelerator> make_accelerator(const Scene& scene, const std::str
     if (backend == "cuda") return make_brute_force_cuda(scene);
 #endif
     return make_brute_force_cpu(scene);
+  }
+  const std::map<std::string, BuildConfig::Shape> grids = {
+      {"irregular", BuildConfig::Shape::irregular},
+      {"two-level", BuildConfig::Shape::two_level},
+      {"uniform", BuildConfig::Shape::uniform}};
+  if (const auto grid = grids.find(structure); grid != grids.end()) {
+    if (backend == "cuda" && options.backend == "cuda")
+      throw Error(ErrorCode::invalid_argument,
+                  fmt::format("structure '{}' has no CUDA backend yet", structure));
+    BuildConfig config = options.grid;
+    config.shape = grid->second;
+    return make_grid_cpu(scene, config);
   }
 #if IRGRID_HAS_EMBREE
   if (structure == "embree") {

@@ -1,8 +1,8 @@
 // The fast double-precision reference returns exactly what the double brute force returns.
 #include <gtest/gtest.h>
 
-#include <cstring>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include "core/random.h"
@@ -78,7 +78,8 @@ TEST(ReferenceTracer, HandlesEmptyAndDegenerateRays) {
                                  {{NAN, 0, -5}, 0, {0, 0, 1}, kInf}};
   std::vector<Hit> hits(rays.size());
   reference.trace(rays, hits, Query::closest);
-  for (const Hit& hit : hits) EXPECT_FALSE(hit.hit());
+  for (const Hit& hit : hits)
+    EXPECT_FALSE(hit.hit());
 }
 
 }  // namespace

@@ -91,6 +91,25 @@ TEST(Validation, CountsWrongHits) {
   EXPECT_FALSE(result.examples.empty());
 }
 
+TEST(Validation, FragileDisagreementsAreNotMismatchesButRobustOnesAre) {
+  const Scene scene = load_scene("builtin:cube");
+  // Starts exactly on the face z = -1: whether t = 0 counts depends on rounding.
+  const std::vector<Ray> rays = {{{0.1f, 0.2f, -1}, 0, {0, 0.3f, 1}, 100}};
+  Hit reference;
+  trace_reference_double(scene, rays, {&reference, 1}, Query::closest);
+  Hit at_start = reference;
+  at_start.t = 0;  // a hit on the starting face, as a float test may report
+  EXPECT_EQ(validate_hits(scene, rays, {&at_start, 1}, Query::closest, 1).mismatches, 0u);
+  Hit far_face = reference;
+  far_face.prim = (reference.prim + 6) % 12, far_face.t = reference.t + 1.0f;
+  EXPECT_EQ(validate_hits(scene, rays, {&far_face, 1}, Query::closest, 1).mismatches,
+            reference.t > 0.5f ? 1u : 0u);
+  const Hit miss;
+  const std::vector<Ray> through = {{{0.1f, 0.2f, -5}, 0, {0, 0, 1}, 100}};
+  EXPECT_EQ(validate_hits(scene, through, {&miss, 1}, Query::closest, 1).mismatches, 1u);
+  EXPECT_EQ(validate_hits(scene, through, {&miss, 1}, Query::any, 1).mismatches, 1u);
+}
+
 TEST(Factory, UnknownStructureOrBackendNamesTheValue) {
   const Scene scene = load_scene("builtin:cube");
   try {

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "irgrid/build_config.h"
 #include "irgrid/ray.h"
 #include "irgrid/scene.h"
 
@@ -39,6 +40,7 @@ class Accelerator {
 /// Options for make_accelerator; more fields arrive with more structures.
 struct AcceleratorOptions {
   std::string backend = "cpu";  ///< "cpu", "cuda" or "auto" (CUDA when a GPU is visible)
+  BuildConfig grid;             ///< parameters of the grid structures
 };
 
 /// Builds `structure` over `scene`. Throws Error{invalid_argument} naming the structure when it is

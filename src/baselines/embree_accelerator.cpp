@@ -6,10 +6,10 @@
 #include <limits>
 
 #include <embree3/rtcore.h>
-#include <xmmintrin.h>
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <xmmintrin.h>
 
 #include "cpu/structures.h"
 #include "irgrid/error.h"
@@ -22,7 +22,9 @@ namespace {
 /// the process keeps IEEE behaviour.
 class DenormalsAreZero {
  public:
-  DenormalsAreZero() : saved_(_mm_getcsr()) { _mm_setcsr(saved_ | kFlushToZero | kDenormalsAreZero); }
+  DenormalsAreZero() : saved_(_mm_getcsr()) {
+    _mm_setcsr(saved_ | kFlushToZero | kDenormalsAreZero);
+  }
   ~DenormalsAreZero() { _mm_setcsr(saved_); }
   DenormalsAreZero(const DenormalsAreZero&) = delete;
   DenormalsAreZero& operator=(const DenormalsAreZero&) = delete;
@@ -115,7 +117,8 @@ class EmbreeCpu final : public Accelerator {
     RTCRay r = to_embree(ray);
     rtcOccluded1(scene_, &context, &r);
     if (r.tfar != -std::numeric_limits<float>::infinity()) return Hit{};
-    return {0, 0, 0, 0};  // Embree does not say which triangle occludes: report triangle 0
+    // Embree does not say which triangle occludes, nor where: triangle 0, distance unknown.
+    return {0, std::numeric_limits<float>::quiet_NaN(), 0, 0};
   }
 
   // Embree reports each allocation (bytes > 0) and release (bytes < 0) through this callback.

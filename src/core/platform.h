@@ -14,3 +14,33 @@
 #else
 #define IRGRID_ON_DEVICE 0
 #endif
+
+#include <cstdint>
+#if !defined(__CUDA_ARCH__)
+#include <atomic>
+#endif
+
+namespace irgrid {
+
+/// Adds `value` to *target atomically and returns the old value (relaxed order: counters only).
+IRGRID_HD inline std::uint32_t atomic_add(std::uint32_t* target, std::uint32_t value) {
+#if IRGRID_ON_DEVICE
+  return atomicAdd(target, value);
+#else
+  return std::atomic_ref<std::uint32_t>(*target).fetch_add(value, std::memory_order_relaxed);
+#endif
+}
+
+/// Sets *target to max(*target, value) atomically.
+IRGRID_HD inline void atomic_max(std::uint32_t* target, std::uint32_t value) {
+#if IRGRID_ON_DEVICE
+  atomicMax(target, value);
+#else
+  std::atomic_ref<std::uint32_t> ref(*target);
+  std::uint32_t seen = ref.load(std::memory_order_relaxed);
+  while (seen < value && !ref.compare_exchange_weak(seen, value, std::memory_order_relaxed)) {
+  }
+#endif
+}
+
+}  // namespace irgrid

@@ -79,14 +79,15 @@ void ReferenceTracer::Impl::build(std::uint32_t node, std::uint32_t first, std::
   }
   nodes[node].lo = lo, nodes[node].hi = hi;
   const Vec3d extent = centre_hi - centre_lo;
-  const int axis = extent.x >= extent.y && extent.x >= extent.z ? 0 : (extent.y >= extent.z ? 1 : 2);
+  const int axis =
+      extent.x >= extent.y && extent.x >= extent.z ? 0 : (extent.y >= extent.z ? 1 : 2);
   if (count <= kLeafSize || depth >= kMaxDepth || extent[axis] <= 0) {
     nodes[node].first = first, nodes[node].count = count;
     return;
   }
   const std::uint32_t half = count / 2;
-  std::nth_element(order.begin() + first, order.begin() + first + half, order.begin() + first + count,
-                   [&](std::uint32_t a, std::uint32_t b) {
+  std::nth_element(order.begin() + first, order.begin() + first + half,
+                   order.begin() + first + count, [&](std::uint32_t a, std::uint32_t b) {
                      return centroids[a][axis] < centroids[b][axis] ||
                             (centroids[a][axis] == centroids[b][axis] && a < b);
                    });
@@ -161,7 +162,8 @@ ReferenceTracer::~ReferenceTracer() = default;
 void ReferenceTracer::trace(std::span<const Ray> rays, std::span<Hit> hits, Query query) const {
   check_trace_spans(rays, hits);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rays.size(), 16), [&](const auto& range) {
-    for (std::size_t i = range.begin(); i != range.end(); ++i) hits[i] = impl_->trace(rays[i], query);
+    for (std::size_t i = range.begin(); i != range.end(); ++i)
+      hits[i] = impl_->trace(rays[i], query);
   });
 }
 

@@ -9,6 +9,8 @@
 namespace irgrid {
 
 std::unique_ptr<Accelerator> make_brute_force_cpu(const Scene& scene);
+/// The irregular grid, or the uniform / two-level grid selected by config.shape.
+std::unique_ptr<Accelerator> make_grid_cpu(const Scene& scene, const BuildConfig& config);
 #if IRGRID_HAS_EMBREE
 std::unique_ptr<Accelerator> make_embree_cpu(const Scene& scene);
 #endif

@@ -48,8 +48,9 @@ std::unique_ptr<Accelerator> timed_build(const Scene& scene, const BenchOptions&
   return accelerator;
 }
 
-BenchRun measure(const Scene& scene, const ReferenceTracer& reference, const Accelerator& accelerator,
-                 std::span<const Ray> rays, Query query, const BenchOptions& o, BenchRun run) {
+BenchRun measure(const Scene& scene, const ReferenceTracer& reference,
+                 const Accelerator& accelerator, std::span<const Ray> rays, Query query,
+                 const BenchOptions& o, BenchRun run) {
   std::vector<Hit> hits(rays.size());
   trace_with_progress(accelerator, rays, hits, query,
                       fmt::format("{} view {} warm-up", run.kind, run.view));
@@ -93,7 +94,8 @@ std::vector<int> chosen_views(const BenchOptions& o, std::size_t available) {
 }
 
 void run_standard_kinds(const Scene& scene, const ReferenceTracer& reference,
-                        const Accelerator& accelerator, const BenchOptions& o, BenchResult& result) {
+                        const Accelerator& accelerator, const BenchOptions& o,
+                        BenchResult& result) {
   const auto cameras = scene_views(scene, o.views_file);
   std::vector<RayKind> kinds;
   for (const auto& name : split_list(o.kinds))

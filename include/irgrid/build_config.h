@@ -1,0 +1,28 @@
+// irgrid/build_config.h: the parameters of the irregular grid's construction.
+#pragma once
+
+namespace irgrid {
+
+/// Construction parameters (Pérard-Gayot et al. 2017, §3-§5; defaults of ../shared/design).
+/// Denser settings build slower and trace faster.
+struct BuildConfig {
+  /// Top-level density λ1: about λ1 x triangles top cells (Cleary et al. 1983). > 0.
+  float lambda1 = 0.12f;
+  /// Second-level density λ2: the octree depth of each top cell follows λ2 x its references. >= 0.
+  float lambda2 = 2.4f;
+  /// Merging stops when a sweep keeps at least alpha x the cells; <= 0 disables merging.
+  float alpha = 0.995f;
+  /// Cost of a traversal step in triangle tests (the SAH's C_t / C_i) for merging. >= 0.
+  float cost_ratio = 1.0f;
+  /// Exit-box expansion passes (3 for static scenes, 1 for dynamic ones, 0 disables).
+  int expansion_passes = 3;
+  /// Let a cell grow part-way into a neighbour holding extra triangles.
+  bool partial_expansion = true;
+  /// 16-byte cells when the virtual grid fits 16 bits per axis.
+  bool compress = true;
+  /// Baselines built from the same phases: split every top cell fully to its depth (two-level
+  /// grid, Kalojanov et al. 2011) or not at all (uniform grid); merging and expansion off.
+  enum class Shape { irregular, two_level, uniform } shape = Shape::irregular;
+};
+
+}  // namespace irgrid

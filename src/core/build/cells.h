@@ -1,0 +1,80 @@
+// core/build/cells.h: one array of cells, one of references sorted per cell, one voxel map.
+//
+// Pérard-Gayot et al. 2017, §3.1, last step: the leaves of all octree levels are concatenated
+// into the cell array and the (cell, triangle) pairs sorted into per-cell ranges. The sort is
+// stable and every level emits each cell's triangles in ascending order, so every list comes out
+// sorted ascending and free of duplicates, which merging and expansion rely on.
+#pragma once
+
+#include <bit>
+#include <cstdint>
+#include <vector>
+
+#include "core/build/octree_levels.h"
+
+namespace irgrid {
+
+/// A built grid: scalars and the four arrays (buffers of the executor's memory space).
+template <typename Exec>
+struct GridArrays {
+  GridInfo info{};
+  typename Exec::template Buffer<Entry> entries;
+  typename Exec::template Buffer<Cell> cells;
+  typename Exec::template Buffer<std::uint32_t> refs;
+  typename Exec::template Buffer<TriangleVertices> triangles;
+};
+
+/// Concatenates per-level buffers into one of `total` elements.
+template <typename Exec, typename T>
+typename Exec::template Buffer<T> concatenate(
+    Exec& exec, const char* name, const std::vector<typename Exec::template Buffer<T>>& parts,
+    std::uint32_t total) {
+  auto out = exec.template allocate<T>(total);
+  std::uint32_t offset = 0;
+  for (const auto& part : parts) {
+    const T* in = part.data();
+    T* d_out = out.data() + offset;
+    exec.for_each(name, part.size(), [=] IRGRID_HD(std::size_t i) { d_out[i] = in[i]; });
+    offset += std::uint32_t(part.size());
+  }
+  return out;
+}
+
+/// Sorts the pairs by cell (stable) and writes each cell's [begin, end) range.
+template <typename Exec>
+typename Exec::template Buffer<std::uint32_t> sort_references(Exec& exec, RefPairs<Exec>& pairs,
+                                                              Cell* cells,
+                                                              std::uint32_t num_cells) {
+  const int key_bits = std::max(1, int(std::bit_width(num_cells)));
+  exec.sort_pairs("sort references", pairs.cell.data(), pairs.tri.data(), pairs.count, key_bits);
+  const std::uint32_t* cell = pairs.cell.data();
+  const std::uint32_t n = pairs.count;
+  exec.for_each("reference ranges", n, [=] IRGRID_HD(std::size_t i) {
+    if (i == 0 || cell[i] != cell[i - 1]) cells[cell[i]].begin = std::uint32_t(i);
+    if (i + 1 == n || cell[i] != cell[i + 1]) cells[cell[i]].end = std::uint32_t(i + 1);
+  });
+  return std::move(pairs.tri);
+}
+
+/// Turns the octree levels into the final arrays (cells, sorted references, octree voxel map).
+template <typename Exec>
+void assemble_grid(Exec& exec, OctreeLevels<Exec>& levels, GridArrays<Exec>& grid) {
+  grid.entries =
+      concatenate<Exec, Entry>(exec, "concatenate entries", levels.entries, levels.num_entries);
+  grid.cells = concatenate<Exec, Cell>(exec, "concatenate cells", levels.cells, levels.num_cells);
+  std::vector<typename Exec::template Buffer<std::uint32_t>> cell_parts, tri_parts;
+  for (auto& part : levels.pairs) {
+    cell_parts.push_back(std::move(part.cell));
+    tri_parts.push_back(std::move(part.tri));
+  }
+  RefPairs<Exec> pairs{
+      concatenate<Exec, std::uint32_t>(exec, "concatenate pairs", cell_parts, levels.num_refs),
+      concatenate<Exec, std::uint32_t>(exec, "concatenate pairs", tri_parts, levels.num_refs),
+      levels.num_refs};
+  grid.refs = sort_references(exec, pairs, grid.cells.data(), levels.num_cells);
+  grid.info.num_cells = levels.num_cells;
+  grid.info.num_refs = levels.num_refs;
+  grid.info.num_entries = levels.num_entries;
+}
+
+}  // namespace irgrid

@@ -1,0 +1,251 @@
+// core/build/octree_levels.h: subdivides the top cells into octrees, level by level.
+//
+// Pérard-Gayot et al. 2017, §3.1 (the "adaptive, dense" start): a node with references and
+// depth budget left splits into 2x2x2 children and re-inserts each of its triangles into the
+// children it overlaps (exact, conservative test); empty nodes never split, so empty space stays
+// as large leaves. Every leaf of every level becomes a cell, empty ones included. The voxel map
+// comes out in octree form: one dense block of 8 entries per split node.
+#pragma once
+
+#include <bit>
+#include <cstdint>
+#include <vector>
+
+#include "core/build/top_level_refs.h"
+#include "irgrid/build_config.h"
+
+namespace irgrid {
+
+/// The octree-form result: all levels' entries, cells and (cell, triangle) pairs concatenated.
+template <typename Exec>
+struct OctreeLevels {
+  std::vector<typename Exec::template Buffer<Entry>> entries;  ///< one buffer per level
+  std::vector<typename Exec::template Buffer<Cell>> cells;     ///< leaves of each level
+  std::vector<RefPairs<Exec>> pairs;                           ///< (cell, triangle) of each level
+  std::uint32_t num_entries = 0, num_cells = 0, num_refs = 0;
+};
+
+/// The nodes of one octree level: their lower voxel and their top cell.
+template <typename Exec>
+struct LevelNodes {
+  typename Exec::template Buffer<Voxel> lo;
+  typename Exec::template Buffer<std::uint32_t> top;
+  std::uint32_t count = 0;
+};
+
+template <typename Exec>
+LevelNodes<Exec> top_level_nodes(Exec& exec, const GridInfo& info) {
+  const std::uint32_t count = std::uint32_t(info.top_dims[0]) * std::uint32_t(info.top_dims[1]) *
+                              std::uint32_t(info.top_dims[2]);
+  LevelNodes<Exec> nodes{exec.template allocate<Voxel>(count),
+                         exec.template allocate<std::uint32_t>(count), count};
+  Voxel* lo = nodes.lo.data();
+  std::uint32_t* top = nodes.top.data();
+  exec.for_each("top nodes", count, [=] IRGRID_HD(std::size_t i) {
+    const auto dx = std::uint32_t(info.top_dims[0]), dy = std::uint32_t(info.top_dims[1]);
+    const auto index = std::uint32_t(i);
+    lo[i] = {std::int32_t(index % dx) << info.shift, std::int32_t(index / dx % dy) << info.shift,
+             std::int32_t(index / dx / dy) << info.shift};
+    top[i] = index;
+  });
+  return nodes;
+}
+
+/// 8-bit mask of the children of a node (lower voxel `lo`, children of `half` voxels) that the
+/// triangle overlaps; bit 0 selects the upper x half, bit 1 y, bit 2 z.
+IRGRID_HD inline std::uint32_t child_overlap_mask(const GridInfo& info, Voxel lo, std::int32_t half,
+                                                  const TriangleVertices& t) {
+  std::uint32_t mask = 0;
+  for (std::uint32_t bit = 0; bit < 8; ++bit) {
+    Vec3<float> box_lo, box_hi;
+    for (int a = 0; a < 3; ++a) {
+      const std::int32_t v = lo[a] + ((bit >> a & 1) ? half : 0);
+      box_lo[a] = voxel_to_world(info, a, v);
+      box_hi[a] = voxel_to_world(info, a, v + half);
+    }
+    if (triangle_overlaps_box(t.p0, t.p1, t.p2, box_lo, box_hi, info.padding)) mask |= 1u << bit;
+  }
+  return mask;
+}
+
+/// Indices i < count with keep(i), in order.
+template <typename Exec, typename Keep>
+typename Exec::template Buffer<std::uint32_t> select_indices(Exec& exec, const char* name,
+                                                             std::uint32_t count, Keep keep,
+                                                             std::uint32_t& selected) {
+  auto all = exec.template allocate<std::uint32_t>(count);
+  auto out = exec.template allocate<std::uint32_t>(count);
+  std::uint32_t* d_all = all.data();
+  exec.for_each(name, count, [=] IRGRID_HD(std::size_t i) { d_all[i] = std::uint32_t(i); });
+  selected = std::uint32_t(
+      exec.select_if(name, d_all, out.data(), count,
+                     [=] IRGRID_HD(std::size_t, std::uint32_t i) { return keep(i); }));
+  return out;
+}
+
+/// Per-node decisions of one level: which nodes split, where their children and leaves go.
+template <typename Exec>
+struct LevelPlan {
+  typename Exec::template Buffer<std::uint32_t> child_base;  ///< first child (split nodes)
+  typename Exec::template Buffer<std::uint32_t>
+      leaf_index;  ///< leaf rank among this level's leaves
+  typename Exec::template Buffer<std::uint8_t> split;
+  std::uint32_t children = 0, leaves = 0;
+};
+
+template <typename Exec>
+LevelPlan<Exec> plan_level(Exec& exec, const LevelNodes<Exec>& nodes, const RefPairs<Exec>& pairs,
+                           const std::int32_t* depths, std::int32_t level,
+                           BuildConfig::Shape shape) {
+  const std::uint32_t n = nodes.count;
+  LevelPlan<Exec> plan{exec.template allocate<std::uint32_t>(n),
+                       exec.template allocate<std::uint32_t>(n),
+                       exec.template allocate<std::uint8_t>(n)};
+  std::uint32_t *child_base = plan.child_base.data(), *leaf_index = plan.leaf_index.data();
+  std::uint8_t* split = plan.split.data();
+  exec.for_each("level clear", n, [=] IRGRID_HD(std::size_t i) { child_base[i] = 0; });
+  const std::uint32_t* pair_node = pairs.cell.data();
+  exec.for_each("level count", pairs.count,
+                [=] IRGRID_HD(std::size_t i) { atomic_add(&child_base[pair_node[i]], 1u); });
+  const std::uint32_t* top = nodes.top.data();
+  const bool split_empty = shape == BuildConfig::Shape::two_level;
+  exec.for_each("level split", n, [=] IRGRID_HD(std::size_t i) {
+    const bool splits = (child_base[i] > 0 || split_empty) && depths[top[i]] > level;
+    split[i] = splits;
+    child_base[i] = splits ? 8 : 0;
+    leaf_index[i] = splits ? 0 : 1;
+  });
+  plan.children = exec.exclusive_scan("level children", child_base, child_base, n);
+  plan.leaves = exec.exclusive_scan("level leaves", leaf_index, leaf_index, n);
+  return plan;
+}
+
+/// Writes this level's voxel-map entries and leaf cells into `out`.
+template <typename Exec>
+void emit_level_entries_and_cells(Exec& exec, const GridInfo& info, const LevelNodes<Exec>& nodes,
+                                  const LevelPlan<Exec>& plan, std::int32_t level,
+                                  OctreeLevels<Exec>& out) {
+  auto entries = exec.template allocate<Entry>(nodes.count);
+  auto cells = exec.template allocate<Cell>(plan.leaves);
+  Entry* d_entries = entries.data();
+  Cell* d_cells = cells.data();
+  const std::uint32_t *child_base = plan.child_base.data(), *leaf_index = plan.leaf_index.data();
+  const std::uint8_t* split = plan.split.data();
+  const Voxel* lo = nodes.lo.data();
+  const std::uint32_t next_level = out.num_entries + nodes.count, first_cell = out.num_cells;
+  const std::int32_t size = std::int32_t(1) << (info.shift - level);
+  exec.for_each("level entries", nodes.count, [=] IRGRID_HD(std::size_t i) {
+    if (split[i]) {
+      d_entries[i] = Entry::inner(1, next_level + child_base[i]);
+      return;
+    }
+    d_entries[i] = Entry::leaf(first_cell + leaf_index[i]);
+    const Voxel v = lo[i];
+    d_cells[leaf_index[i]] = {{v.x, v.y, v.z}, 0, {v.x + size, v.y + size, v.z + size}, 0};
+  });
+  out.num_entries += nodes.count;
+  out.num_cells += plan.leaves;
+  out.entries.push_back(std::move(entries));
+  out.cells.push_back(std::move(cells));
+}
+
+/// Moves the pairs of nodes that stay leaves to `out`, as (cell, triangle).
+template <typename Exec>
+void keep_leaf_pairs(Exec& exec, const RefPairs<Exec>& pairs, const LevelPlan<Exec>& plan,
+                     std::uint32_t first_cell, OctreeLevels<Exec>& out) {
+  const std::uint32_t *node = pairs.cell.data(), *tri = pairs.tri.data();
+  const std::uint8_t* split = plan.split.data();
+  std::uint32_t kept = 0;
+  const auto picked = select_indices(
+      exec, "keep leaf pairs", pairs.count,
+      [=] IRGRID_HD(std::uint32_t i) { return !split[node[i]]; }, kept);
+  RefPairs<Exec> leaf_pairs{exec.template allocate<std::uint32_t>(kept),
+                            exec.template allocate<std::uint32_t>(kept), kept};
+  std::uint32_t *cell_out = leaf_pairs.cell.data(), *tri_out = leaf_pairs.tri.data();
+  const std::uint32_t *leaf_index = plan.leaf_index.data(), *d_picked = picked.data();
+  exec.for_each("keep leaf pairs", kept, [=] IRGRID_HD(std::size_t k) {
+    const std::uint32_t i = d_picked[k];
+    cell_out[k] = first_cell + leaf_index[node[i]];
+    tri_out[k] = tri[i];
+  });
+  out.num_refs += kept;
+  out.pairs.push_back(std::move(leaf_pairs));
+}
+
+/// The children of the split nodes, and their (child, triangle) pairs.
+template <typename Exec>
+std::pair<LevelNodes<Exec>, RefPairs<Exec>> split_level(Exec& exec, const GridInfo& info,
+                                                        const TriangleVertices* triangles,
+                                                        const LevelNodes<Exec>& nodes,
+                                                        const RefPairs<Exec>& pairs,
+                                                        const LevelPlan<Exec>& plan,
+                                                        std::int32_t level) {
+  const std::int32_t half = std::int32_t(1) << (info.shift - level - 1);
+  LevelNodes<Exec> children{exec.template allocate<Voxel>(plan.children),
+                            exec.template allocate<std::uint32_t>(plan.children), plan.children};
+  Voxel* child_lo = children.lo.data();
+  std::uint32_t* child_top = children.top.data();
+  const Voxel* lo = nodes.lo.data();
+  const std::uint32_t *top = nodes.top.data(), *child_base = plan.child_base.data();
+  const std::uint8_t* split = plan.split.data();
+  exec.for_each("child nodes", nodes.count, [=] IRGRID_HD(std::size_t i) {
+    if (!split[i]) return;
+    for (std::uint32_t bit = 0; bit < 8; ++bit) {
+      const Voxel v = lo[i];
+      child_lo[child_base[i] + bit] = {v.x + ((bit & 1) ? half : 0), v.y + ((bit & 2) ? half : 0),
+                                       v.z + ((bit & 4) ? half : 0)};
+      child_top[child_base[i] + bit] = top[i];
+    }
+  });
+  const std::uint32_t *node = pairs.cell.data(), *tri = pairs.tri.data();
+  std::uint32_t selected = 0;
+  const auto picked = select_indices(
+      exec, "split pairs", pairs.count,
+      [=] IRGRID_HD(std::uint32_t i) { return split[node[i]] != 0; }, selected);
+  auto masks = exec.template allocate<std::uint32_t>(selected + 1);
+  auto offsets = exec.template allocate<std::uint32_t>(selected + 1);
+  std::uint32_t *d_masks = masks.data(), *d_offsets = offsets.data();
+  const std::uint32_t* d_picked = picked.data();
+  exec.for_each("split masks", selected, [=] IRGRID_HD(std::size_t k) {
+    const std::uint32_t i = d_picked[k];
+    d_masks[k] = child_overlap_mask(info, lo[node[i]], half, triangles[tri[i]]);
+    d_offsets[k] = std::uint32_t(std::popcount(d_masks[k]));
+  });
+  const std::uint32_t total = exec.exclusive_scan("split offsets", d_offsets, d_offsets, selected);
+  check_reference_count(std::uint64_t(total), "octree references");
+  RefPairs<Exec> child_pairs{exec.template allocate<std::uint32_t>(total),
+                             exec.template allocate<std::uint32_t>(total), total};
+  std::uint32_t *cell_out = child_pairs.cell.data(), *tri_out = child_pairs.tri.data();
+  exec.for_each("split emit", selected, [=] IRGRID_HD(std::size_t k) {
+    const std::uint32_t i = d_picked[k];
+    std::uint32_t out = d_offsets[k];
+    for (std::uint32_t bit = 0; bit < 8; ++bit)
+      if (d_masks[k] >> bit & 1) cell_out[out] = child_base[node[i]] + bit, tri_out[out++] = tri[i];
+  });
+  return {std::move(children), std::move(child_pairs)};
+}
+
+/// Runs the octree subdivision from the top level down to depth info.shift.
+template <typename Exec>
+OctreeLevels<Exec> build_octree_levels(Exec& exec, const GridInfo& info,
+                                       const TriangleVertices* triangles, RefPairs<Exec> pairs,
+                                       const std::int32_t* depths, BuildConfig::Shape shape) {
+  OctreeLevels<Exec> out;
+  LevelNodes<Exec> nodes = top_level_nodes(exec, info);
+  for (std::int32_t level = 0;; ++level) {
+    const LevelPlan<Exec> plan = plan_level(exec, nodes, pairs, depths, level, shape);
+    const std::uint32_t first_cell = out.num_cells;
+    emit_level_entries_and_cells(exec, info, nodes, plan, level, out);
+    keep_leaf_pairs(exec, pairs, plan, first_cell, out);
+    if (plan.children == 0) break;
+    auto next = split_level(exec, info, triangles, nodes, pairs, plan, level);
+    nodes = std::move(next.first);
+    pairs = std::move(next.second);
+    if (std::uint64_t(out.num_entries) + nodes.count > kMaxEntryTarget)
+      throw Error(ErrorCode::limit_exceeded,
+                  "voxel map: more than 2^30 - 1 entries (lower lambda2)");
+  }
+  return out;
+}
+
+}  // namespace irgrid

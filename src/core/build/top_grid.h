@@ -1,0 +1,109 @@
+// core/build/top_grid.h: the grid box and the top-level resolution (phase 1 of the build).
+//
+// Pérard-Gayot et al. 2017, §3.1: the top level is a uniform grid whose resolution follows
+// Cleary et al., "Design and analysis of a parallel ray tracing computer" (1983): about λ1 x N
+// cubic cells over the scene box. Flat axes (zero extent) get one cell and the density is taken
+// over the remaining axes, so flat scenes still get square cells.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <string>
+
+#include "core/grid/layout.h"
+#include "core/triangle.h"
+#include "irgrid/build_config.h"
+#include "irgrid/error.h"
+
+namespace irgrid {
+
+/// World distance by which every insertion test grows a cell: far above the rounding of the
+/// traversal's float positions (about 64 ulps of the largest coordinate), far below a voxel.
+inline float insertion_padding(const BoxF& box) {
+  float magnitude = 0;
+  for (int a = 0; a < 3; ++a)
+    magnitude = std::fmax(magnitude, std::fmax(std::fabs(box.lo[a]), std::fabs(box.hi[a])));
+  return std::fmax(magnitude * 0x1p-17f, 1e-30f);
+}
+
+/// Cleary's resolution for `count` primitives in a box of extents `extent` and density λ:
+/// cells of side s with (product of non-flat extents) / s^k = λ x count, k non-flat axes.
+IRGRID_HD inline void cleary_resolution(const Vec3<float>& extent, double density, double count,
+                                        float flat, double out[3]) {
+  double volume = 1;
+  int axes = 0;
+  for (int a = 0; a < 3; ++a)
+    if (extent[a] > flat) volume *= extent[a], ++axes;
+  const double side = axes == 0 || count <= 0 || density <= 0
+                          ? std::numeric_limits<double>::infinity()
+                          : std::pow(volume / (density * count), 1.0 / axes);
+  for (int a = 0; a < 3; ++a)
+    out[a] = extent[a] > flat ? std::floor(extent[a] / side) : 1.0;
+}
+
+/// Plans the top grid over the triangles' box: fills box, top_dims and padding of the result.
+template <typename Exec>
+GridInfo plan_top_grid(Exec& exec, const TriangleVertices* triangles, std::uint32_t count,
+                       const BuildConfig& config) {
+  if (!(config.lambda1 > 0) || !std::isfinite(config.lambda1))
+    throw Error(ErrorCode::invalid_argument,
+                "lambda1 = " + std::to_string(config.lambda1) + " must be a positive number");
+  const float inf = std::numeric_limits<float>::infinity();
+  const BoxF empty{{inf, inf, inf}, {-inf, -inf, -inf}};
+  const BoxF box = exec.transform_reduce(
+      "scene box", count, empty,
+      [] IRGRID_HD(const BoxF& a, const BoxF& b) { return box_union(a, b); },
+      [triangles] IRGRID_HD(std::size_t i) { return triangle_box(triangles[i]); });
+  GridInfo info{};
+  info.num_triangles = count;
+  info.padding = insertion_padding(box);
+  // Grow the box so that padded triangles lie inside and no axis has zero extent.
+  const float margin = 4 * info.padding;
+  Vec3<float> extent;
+  for (int a = 0; a < 3; ++a) {
+    info.box_lo[a] = box.lo[a] - margin;
+    info.box_hi[a] = box.hi[a] + margin;
+    extent[a] = box.hi[a] - box.lo[a];
+  }
+  double dims[3];
+  cleary_resolution(extent, config.lambda1, count, margin, dims);
+  double total = 1;
+  for (int a = 0; a < 3; ++a) {
+    info.top_dims[a] =
+        std::int32_t(std::fmin(std::fmax(dims[a], 1.0), double(kMaxVirtualResolution)));
+    total *= info.top_dims[a];
+  }
+  if (total > kMaxEntryTarget || dims[0] > kMaxVirtualResolution ||
+      dims[1] > kMaxVirtualResolution || dims[2] > kMaxVirtualResolution)
+    throw Error(ErrorCode::limit_exceeded,
+                "lambda1 = " + std::to_string(config.lambda1) + " asks for a top grid of " +
+                    std::to_string(dims[0]) + " x " + std::to_string(dims[1]) + " x " +
+                    std::to_string(dims[2]) + " cells; the limit is 2^30 cells and 2^24 per axis");
+  return info;
+}
+
+/// Finishes the grid's geometry once the octree depth D is known: virtual resolution R << D.
+inline void set_virtual_resolution(GridInfo& info, std::int32_t shift) {
+  info.shift = shift;
+  for (int a = 0; a < 3; ++a) {
+    info.virtual_dims[a] = info.top_dims[a] << shift;
+    info.voxel_size[a] = (info.box_hi[a] - info.box_lo[a]) / float(info.virtual_dims[a]);
+    info.inv_voxel_size[a] = 1.0f / info.voxel_size[a];
+  }
+}
+
+/// Largest octree depth the virtual grid allows: R << D stays within kMaxVirtualResolution.
+inline std::int32_t max_octree_depth(const GridInfo& info) {
+  std::int32_t depth = 0;
+  while (depth < 20) {
+    bool fits = true;
+    for (int a = 0; a < 3; ++a)
+      fits &= (std::int64_t(info.top_dims[a]) << (depth + 1)) <= kMaxVirtualResolution;
+    if (!fits) break;
+    ++depth;
+  }
+  return depth;
+}
+
+}  // namespace irgrid

@@ -1,0 +1,103 @@
+// core/grid/layout.h: the irregular grid's plain data, shared verbatim by host and device code.
+//
+// Pérard-Gayot, Kalojanov, Slusallek, "GPU Ray Tracing using Irregular Grids", EG 2017, §3:
+// cells of varying size tile a virtual grid of (top_dims << shift) voxels per axis; a voxel map
+// answers "which cell owns this voxel" and each cell lists the triangles that overlap it.
+#pragma once
+
+#include <cstdint>
+
+#include "core/platform.h"
+#include "core/vec.h"
+
+namespace irgrid {
+
+/// Largest virtual-grid resolution per axis: voxel coordinates, their sums and the exit-box
+/// coordinates stay far from int32 overflow, and compressed cells fit 16 bits when below 2^16.
+inline constexpr std::int32_t kMaxVirtualResolution = 1 << 24;
+/// Largest number of cells, references and voxel-map entries (30 bits of an entry address them).
+inline constexpr std::uint32_t kMaxEntryTarget = (1u << 30) - 1;
+
+/// Scalars of a grid. 96 bytes.
+struct GridInfo {
+  Vec3<float> box_lo;            ///< 12 B world-space corner of voxel (0,0,0)
+  Vec3<float> box_hi;            ///< 12 B opposite corner
+  Vec3<float> voxel_size;        ///< 12 B world size of one virtual voxel per axis
+  Vec3<float> inv_voxel_size;    ///< 12 B its reciprocal (0 on a flat axis)
+  std::int32_t top_dims[3];      ///< 12 B top-level resolution R per axis
+  std::int32_t shift;            ///<  4 B octree depth D: the virtual resolution is R << D
+  std::int32_t virtual_dims[3];  ///< 12 B R << D per axis
+  std::uint32_t num_cells;       ///<  4 B
+  std::uint32_t num_refs;        ///<  4 B
+  std::uint32_t num_entries;     ///<  4 B voxel-map entries, top level included
+  std::uint32_t num_triangles;   ///<  4 B
+  float padding;                 ///<  4 B world distance by which the insertion test grows cells
+};
+static_assert(sizeof(GridInfo) == 96 && alignof(GridInfo) == 4);
+
+/// A cell: its exit box in voxels (the entry box, owned in the voxel map, may be smaller after
+/// expansion) and its half-open range in the reference array. 32 bytes.
+struct Cell {
+  std::int32_t lo[3];   ///< 12 B exit box, inclusive lower voxel
+  std::uint32_t begin;  ///<  4 B first reference
+  std::int32_t hi[3];   ///< 12 B exit box, exclusive upper voxel
+  std::uint32_t end;    ///<  4 B one past the last reference
+};
+static_assert(sizeof(Cell) == 32 && alignof(Cell) == 4);
+
+/// A voxel-map entry, 4 bytes: log_dim in the top 2 bits, a 30-bit index below. log_dim 0: a
+/// leaf, the index is a cell. log_dim k in 1..3: an inner node whose children form a dense
+/// (2^k)^3 block (x fastest) starting at the index.
+struct Entry {
+  std::uint32_t bits;  ///< 4 B
+  IRGRID_HD static constexpr Entry leaf(std::uint32_t cell) { return {cell}; }
+  IRGRID_HD static constexpr Entry inner(std::uint32_t log_dim, std::uint32_t first_child) {
+    return {log_dim << 30 | first_child};
+  }
+  IRGRID_HD constexpr std::uint32_t log_dim() const { return bits >> 30; }
+  IRGRID_HD constexpr std::uint32_t index() const { return bits & kMaxEntryTarget; }
+};
+static_assert(sizeof(Entry) == 4);
+
+/// Integer voxel coordinates.
+struct Voxel {
+  std::int32_t x, y, z;
+  IRGRID_HD constexpr std::int32_t operator[](int a) const { return a == 0 ? x : (a == 1 ? y : z); }
+  IRGRID_HD constexpr std::int32_t& operator[](int a) { return a == 0 ? x : (a == 1 ? y : z); }
+};
+
+/// World coordinate of the voxel boundary `v` on axis `a` (the same formula in build and
+/// traversal, so both see the same planes).
+IRGRID_HD inline float voxel_to_world(const GridInfo& info, int a, std::int32_t v) {
+  return info.box_lo[a] + float(v) * info.voxel_size[a];
+}
+
+/// The voxel holding world coordinate `x` on axis `a`, clamped to the grid.
+IRGRID_HD inline std::int32_t world_to_voxel(const GridInfo& info, int a, float x) {
+  const float f = (x - info.box_lo[a]) * info.inv_voxel_size[a];
+  const std::int32_t last = info.virtual_dims[a] - 1;
+  if (!(f > 0.f)) return 0;  // also NaN
+  if (f >= float(last)) return last;
+  return std::int32_t(f);
+}
+
+/// The cell owning voxel `v`: one dependent 4-byte read per map level.
+IRGRID_HD inline std::uint32_t lookup_cell(const GridInfo& info, const Entry* entries, Voxel v) {
+  const Voxel top{v.x >> info.shift, v.y >> info.shift, v.z >> info.shift};
+  Entry entry =
+      entries[(std::uint32_t(top.z) * std::uint32_t(info.top_dims[1]) + std::uint32_t(top.y)) *
+                  std::uint32_t(info.top_dims[0]) +
+              std::uint32_t(top.x)];
+  std::int32_t level_shift = info.shift;
+  while (entry.log_dim() != 0) {
+    const std::uint32_t k = entry.log_dim(), mask = (1u << k) - 1;
+    level_shift -= std::int32_t(k);
+    const std::uint32_t cx = std::uint32_t(v.x >> level_shift) & mask;
+    const std::uint32_t cy = std::uint32_t(v.y >> level_shift) & mask;
+    const std::uint32_t cz = std::uint32_t(v.z >> level_shift) & mask;
+    entry = entries[entry.index() + ((cz << k | cy) << k | cx)];
+  }
+  return entry.index();
+}
+
+}  // namespace irgrid

@@ -1,0 +1,38 @@
+// core/triangle.h: triangles as the tracers store them, and their bounding boxes.
+#pragma once
+
+#include "core/platform.h"
+#include "core/vec.h"
+
+namespace irgrid {
+
+/// The three vertices of a triangle, 36 bytes: what the watertight test reads.
+struct TriangleVertices {
+  Vec3<float> p0, p1, p2;  ///< 3 x 12 B
+};
+static_assert(sizeof(TriangleVertices) == 36 && alignof(TriangleVertices) == 4);
+
+/// Axis-aligned box in world space.
+struct BoxF {
+  Vec3<float> lo, hi;
+};
+
+IRGRID_HD inline float min3(float a, float b, float c) {
+  return fminf(a, fminf(b, c));
+}
+IRGRID_HD inline float max3(float a, float b, float c) {
+  return fmaxf(a, fmaxf(b, c));
+}
+
+IRGRID_HD inline BoxF triangle_box(const TriangleVertices& t) {
+  return {
+      {min3(t.p0.x, t.p1.x, t.p2.x), min3(t.p0.y, t.p1.y, t.p2.y), min3(t.p0.z, t.p1.z, t.p2.z)},
+      {max3(t.p0.x, t.p1.x, t.p2.x), max3(t.p0.y, t.p1.y, t.p2.y), max3(t.p0.z, t.p1.z, t.p2.z)}};
+}
+
+IRGRID_HD inline BoxF box_union(const BoxF& a, const BoxF& b) {
+  return {{fminf(a.lo.x, b.lo.x), fminf(a.lo.y, b.lo.y), fminf(a.lo.z, b.lo.z)},
+          {fmaxf(a.hi.x, b.hi.x), fmaxf(a.hi.y, b.hi.y), fmaxf(a.hi.z, b.hi.z)}};
+}
+
+}  // namespace irgrid

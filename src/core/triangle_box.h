@@ -1,0 +1,145 @@
+// core/triangle_box.h: conservative triangle/box overlap test for host and device, float or double.
+//
+// Akenine-Möller, "Fast 3D Triangle-Box Overlap Testing", JGT 6(1), 2001: a triangle and a box
+// are disjoint iff their projections onto one of 13 axes are disjoint (separating axis theorem):
+// the 3 box face normals (the triangle's bounding box against the box), the triangle normal
+// (its plane against the box) and the 9 cross products of a triangle edge with a box edge.
+// As in the paper, the triangle is moved into the frame of the box centre first, so rounding
+// errors scale with the distance to the box rather than with the absolute coordinates.
+//
+// Conservative in floating point (the builder must never drop a triangle that touches a cell):
+// * The theorem holds for *any* axis, so an axis computed with rounding errors (an edge, a cross
+//   product) is still a valid candidate: only the projections onto it need care. A zero axis
+//   (a degenerate triangle, an edge parallel to a box edge) projects everything to 0 and so
+//   never separates; for a collinear triangle or a point the remaining axes are still complete.
+// * Projections onto an axis a are compared with a margin. With u = eps/2, v = p - c the
+//   translated vertices (one rounding each) and h the half extents (one rounding each), every
+//   projection d_i = a.v_i and the box radius r = |a|.h are off from the exact values by at most
+//   (gamma_3 + u) * sum_k |a_k| R_k ~ 4u sum_k |a_k| R_k, where R_k = max_i |v_ik| + h_k.
+//   A separation claim compares two such values, so the exact gap is at least the computed one
+//   minus ~8u sum_k |a_k| R_k (a little more for the final subtraction). The margin
+//       tol = 8 eps sum_k |a_k| (R_k + tiny/eps) + 16 tiny   (= 16u sum_k |a_k| R_k + ...)
+//   is twice that, which also covers the rounding of tol itself and contracted multiply-adds;
+//   the tiny (smallest normal) terms cover underflow, flush-to-zero included, where relative
+//   bounds fail. A touching case has an exact gap <= 0 on every axis, so it is never separated.
+//   (tests/test_triangle_box.cpp: with 0.5 eps instead of 8 eps the float test misses touching
+//   cases; with 1 eps it does not, so the margin is about 8x what rounding takes in practice.)
+// * Overflow gives an infinite or NaN margin (tol grows with every product in the projections),
+//   and comparisons with it are false: "not separated", again on the safe side.
+// Float is precise for triangles whose size and distance to the box lie within ~1e-12..1e12
+// (the normal axis costs size^2, its projections size^3); outside that it degrades to
+// reporting overlap, never to missing one.
+#pragma once
+
+#include "core/platform.h"
+#include "core/vec.h"
+
+namespace irgrid {
+namespace triangle_box_detail {
+
+/// Machine epsilon (spacing of T just above 1); a constexpr function so device code may use it.
+template <typename T>
+IRGRID_HD constexpr T machine_epsilon() {
+  return sizeof(T) == 4 ? T(0x1p-23) : T(0x1p-52);
+}
+/// Smallest normal number of T: the absolute error bound of one operation that underflows.
+template <typename T>
+IRGRID_HD constexpr T smallest_normal() {
+  return sizeof(T) == 4 ? T(0x1p-126) : T(0x1p-1022);
+}
+
+template <typename T>
+IRGRID_HD constexpr T abs_of(T x) {
+  return x < T(0) ? -x : x;
+}
+template <typename T>
+IRGRID_HD constexpr T min_of(T a, T b) {
+  return b < a ? b : a;
+}
+template <typename T>
+IRGRID_HD constexpr T max_of(T a, T b) {
+  return a < b ? b : a;
+}
+template <typename T>
+IRGRID_HD constexpr Vec3<T> abs_of(Vec3<T> a) {
+  return {abs_of(a.x), abs_of(a.y), abs_of(a.z)};
+}
+
+/// The triangle in the frame of the (padded) box centre, with the magnitudes its error bounds
+/// scale with.
+template <typename T>
+struct CenteredTriangle {
+  Vec3<T> v0, v1, v2;  ///< vertices minus the box centre
+  Vec3<T> half;        ///< half extents of the padded box around that centre
+  Vec3<T> reach;       ///< per axis: max_i |v_ik| + half_k + tiny/eps (see the header comment)
+};
+
+template <typename T>
+IRGRID_HD inline CenteredTriangle<T> center_on_box(Vec3<T> p0, Vec3<T> p1, Vec3<T> p2,
+                                                   Vec3<T> box_lo, Vec3<T> box_hi, T padding) {
+  CenteredTriangle<T> t;
+  const T floor = smallest_normal<T>() / machine_epsilon<T>();
+  for (int k = 0; k < 3; ++k) {
+    // lo - padding <= lo after rounding (and hi + padding >= hi): the padded box holds the box.
+    const T lo = box_lo[k] - padding, hi = box_hi[k] + padding;
+    // Any centre will do; halving first cannot overflow. The half extent is measured from the
+    // rounded centre to the farther face, so the box it describes holds [lo, hi] up to one
+    // rounding, which the margin accounts for.
+    const T center = T(0.5) * lo + T(0.5) * hi;
+    t.half[k] = max_of(hi - center, center - lo);
+    t.v0[k] = p0[k] - center;
+    t.v1[k] = p1[k] - center;
+    t.v2[k] = p2[k] - center;
+    const T farthest = max_of(abs_of(t.v0[k]), max_of(abs_of(t.v1[k]), abs_of(t.v2[k])));
+    t.reach[k] = farthest + t.half[k] + floor;
+  }
+  return t;
+}
+
+/// True only when the projections of triangle and box onto `axis` are disjoint by more than
+/// rounding could explain (see the header comment); a zero axis never separates.
+template <typename T>
+IRGRID_HD inline bool separated_along(Vec3<T> axis, const CenteredTriangle<T>& t) {
+  const T d0 = dot(axis, t.v0), d1 = dot(axis, t.v1), d2 = dot(axis, t.v2);
+  const Vec3<T> magnitude = abs_of(axis);
+  const T radius = dot(magnitude, t.half);
+  const T tolerance =
+      T(8) * machine_epsilon<T>() * dot(magnitude, t.reach) + T(16) * smallest_normal<T>();
+  const T lowest = min_of(d0, min_of(d1, d2)), highest = max_of(d0, max_of(d1, d2));
+  // Written as "gap > tolerance" so that a NaN or infinite tolerance (overflow) never separates.
+  return lowest - radius > tolerance || -highest - radius > tolerance;
+}
+
+/// The three axes edge x (unit box edge along x, y, z), written out: no rounding at all.
+template <typename T>
+IRGRID_HD inline bool edge_separates(Vec3<T> edge, const CenteredTriangle<T>& t) {
+  return separated_along(Vec3<T>{T(0), edge.z, -edge.y}, t) ||
+         separated_along(Vec3<T>{-edge.z, T(0), edge.x}, t) ||
+         separated_along(Vec3<T>{edge.y, -edge.x, T(0)}, t);
+}
+
+}  // namespace triangle_box_detail
+
+/// Whether triangle (p0, p1, p2) overlaps the closed box [box_lo, box_hi] grown by `padding`
+/// (an absolute distance >= 0) on every side. Conservative: touching counts as overlap and
+/// rounding never turns a touching or overlapping pair into "no overlap", for any triangle
+/// (degenerate ones included) and any finite coordinates; it may answer true for pairs that
+/// are apart by a few units in the last place of their coordinates relative to the box centre.
+/// Requires box_lo <= box_hi.
+template <typename T>
+IRGRID_HD inline bool triangle_overlaps_box(Vec3<T> p0, Vec3<T> p1, Vec3<T> p2, Vec3<T> box_lo,
+                                            Vec3<T> box_hi, T padding) {
+  using namespace triangle_box_detail;
+  const CenteredTriangle<T> t = center_on_box(p0, p1, p2, box_lo, box_hi, padding);
+  // Box face normals first: the triangle's bounding box against the box, the cheapest test.
+  if (separated_along(Vec3<T>{T(1), T(0), T(0)}, t) ||
+      separated_along(Vec3<T>{T(0), T(1), T(0)}, t) ||
+      separated_along(Vec3<T>{T(0), T(0), T(1)}, t))
+    return false;
+  const Vec3<T> e0 = t.v1 - t.v0, e1 = t.v2 - t.v1, e2 = t.v0 - t.v2;
+  // The triangle's plane against the box.
+  if (separated_along(cross(e0, e1), t)) return false;
+  return !(edge_separates(e0, t) || edge_separates(e1, t) || edge_separates(e2, t));
+}
+
+}  // namespace irgrid

@@ -1,0 +1,193 @@
+// cpu/cpu_executor.h: the oneTBB executor: the parallel primitives every build phase is written in.
+#pragma once
+
+#include <oneapi/tbb/blocked_range.h>
+#include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/parallel_scan.h>
+
+#include <chrono>
+#include <cstddef>
+#include <map>
+#include <string>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include "cpu/radix_sort.h"
+
+namespace irgrid {
+
+/// Runs data-parallel primitives on the host with oneTBB. Algorithms are templates over an
+/// executor and use only the calls below, so the CUDA executor can offer the same ones (a
+/// generic kernel for for_each, CUB for the rest) and the same code builds on both backends.
+///
+/// Every primitive is deterministic: for the same inputs the outputs are bit-identical
+/// whatever the number of TBB threads, because work is cut into blocks that depend on n only
+/// and partial results are combined in block order.
+///
+/// Each call adds its wall time to a profile entry named by its `name` argument. Calls must be
+/// made from one thread at a time and never from inside another primitive's body.
+class CpuExecutor {
+ public:
+  /// Memory the primitives work on; host vectors here, device buffers on the CUDA executor.
+  /// Algorithm code reaches elements only through the executor's calls or, inside a
+  /// for_each body, through raw pointers taken with buffer.data() beforehand.
+  template <typename T>
+  using Buffer = std::vector<T>;
+
+  /// A buffer of n elements. Contents are unspecified by the contract (value-initialised
+  /// here), so callers must write before they read.
+  template <typename T>
+  Buffer<T> allocate(std::size_t n) const {
+    return Buffer<T>(n);
+  }
+
+  /// Calls body(i) once for every i in [0, n), in parallel and in no particular order.
+  /// Bodies must not write to the same location; they may run concurrently.
+  template <typename F>
+  void for_each(const char* name, std::size_t n, F&& body) const {
+    const PhaseTimer timer(*this, name);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+                        for (std::size_t i = range.begin(); i != range.end(); ++i)
+                          body(i);
+                      });
+  }
+
+  /// out[i] = in[0] + ... + in[i - 1] for i in [0, n); returns the sum of all n inputs
+  /// (0 when n == 0). Integer types only, with wrap-around on overflow. in == out is allowed;
+  /// otherwise the ranges must not overlap.
+  template <typename T>
+  T exclusive_scan(const char* name, const T* in, T* out, std::size_t n) const {
+    static_assert(std::is_integral_v<T>,
+                  "exclusive_scan is exact (deterministic) on integers only");
+    const PhaseTimer timer(*this, name);
+    if (n < parallel_scan_min_n) return sequential_exclusive_scan(in, out, 0, n, T(0), true);
+    return tbb::parallel_scan(
+        tbb::blocked_range<std::size_t>(0, n, scan_grain_size), T(0),
+        [in, out](const tbb::blocked_range<std::size_t>& range, T running, bool is_final) {
+          return sequential_exclusive_scan(in, out, range.begin(), range.end(), running, is_final);
+        },
+        [](T left, T right) { return T(left + right); });
+  }
+
+  /// init op in[0] op ... op in[n - 1], for op associative and commutative (sum, min or max
+  /// over integers; min or max over floats). Returns init when n == 0. The grouping of the
+  /// operations depends on n only, so even a float sum is reproducible run to run.
+  template <typename T, typename Op>
+  T reduce(const char* name, const T* in, std::size_t n, T init, Op op) const {
+    return transform_reduce(name, n, init, op, [in](std::size_t i) { return in[i]; });
+  }
+
+  /// init op f(0) op ... op f(n - 1), with the same contract as reduce; f(i) computes the
+  /// element so no temporary buffer is needed. f must be pure (it runs concurrently).
+  template <typename T, typename Op, typename F>
+  T transform_reduce(const char* name, std::size_t n, T init, Op op, F f) const {
+    const PhaseTimer timer(*this, name);
+    const detail::BlockPartition blocks(n, reduce_block_size);
+    std::vector<T> partials(blocks.count, init);
+    detail::for_each_block(blocks, [&](std::size_t block) {
+      T accumulated = f(blocks.begin(block));
+      for (std::size_t i = blocks.begin(block) + 1; i < blocks.end(block); ++i)
+        accumulated = op(accumulated, f(i));
+      partials[block] = accumulated;
+    });
+    T result = init;
+    for (const T& partial : partials)
+      result = op(result, partial);
+    return result;
+  }
+
+  /// Stable sort of keys[0, n) by their low `key_bits` bits (CUB's begin_bit = 0,
+  /// end_bit = key_bits), with values[0, n) permuted alongside. K is an unsigned integer
+  /// (uint32 or uint64); key_bits is in [0, 8 * sizeof(K)] (Error(invalid_argument)
+  /// otherwise). Bits above key_bits are kept in the keys but do not affect the order. Uses
+  /// scratch memory for one more copy of the keys and values.
+  template <typename K, typename V>
+  void sort_pairs(const char* name, K* keys, V* values, std::size_t n, int key_bits) const {
+    const PhaseTimer timer(*this, name);
+    detail::radix_sort_pairs(keys, values, n, key_bits);
+  }
+
+  /// Stable compaction: copies in[i] to out, in increasing i, for every i where
+  /// keep(i, in[i]) is true, and returns how many were copied. in and out must not overlap.
+  /// keep must be pure: it runs concurrently and may be called more than once per element.
+  template <typename T, typename Pred>
+  std::size_t select_if(const char* name, const T* in, T* out, std::size_t n, Pred keep) const {
+    const PhaseTimer timer(*this, name);
+    const detail::BlockPartition blocks(n, select_block_size);
+    std::vector<std::size_t> block_offsets(blocks.count);
+    detail::for_each_block(blocks, [&](std::size_t block) {
+      std::size_t kept = 0;
+      for (std::size_t i = blocks.begin(block); i < blocks.end(block); ++i)
+        kept += keep(i, in[i]);
+      block_offsets[block] = kept;
+    });
+    std::size_t total = 0;
+    for (std::size_t& offset : block_offsets)
+      total += std::exchange(offset, total);
+    detail::for_each_block(blocks, [&](std::size_t block) {
+      T* next = out + block_offsets[block];
+      for (std::size_t i = blocks.begin(block); i < blocks.end(block); ++i)
+        if (keep(i, in[i])) *next++ = in[i];
+    });
+    return total;
+  }
+
+  /// Waits for all submitted work. A no-op here (every call above returns when done); the
+  /// CUDA executor waits for its stream.
+  void synchronize() const {}
+
+  /// Accumulated wall time in milliseconds per phase name, since construction or the last
+  /// reset_profile().
+  const std::map<std::string, double>& profile_ms() const { return profile_ms_; }
+
+  /// Clears the accumulated phase times.
+  void reset_profile() { profile_ms_.clear(); }
+
+ private:
+  /// Below this many elements a sequential scan beats spawning tasks.
+  static constexpr std::size_t parallel_scan_min_n = std::size_t(1) << 15;
+  static constexpr std::size_t scan_grain_size = std::size_t(1) << 14;
+  static constexpr std::size_t reduce_block_size = std::size_t(1) << 14;
+  static constexpr std::size_t select_block_size = std::size_t(1) << 14;
+
+  /// Exclusive scan of in[begin, end) starting from `running`; writes out only when
+  /// `write` (TBB's pre-scan pass only sums). Reads in[i] before writing out[i], so in == out
+  /// works. Returns the running sum after `end`.
+  template <typename T>
+  static T sequential_exclusive_scan(const T* in, T* out, std::size_t begin, std::size_t end,
+                                     T running, bool write) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const T value = in[i];
+      if (write) out[i] = running;
+      running = T(running + value);
+    }
+    return running;
+  }
+
+  /// Adds the wall time of its scope to the profile entry `name`.
+  class PhaseTimer {
+   public:
+    PhaseTimer(const CpuExecutor& executor, const char* name)
+        : executor_(executor), name_(name), start_(std::chrono::steady_clock::now()) {}
+    ~PhaseTimer() {
+      const std::chrono::duration<double, std::milli> elapsed =
+          std::chrono::steady_clock::now() - start_;
+      executor_.profile_ms_[name_] += elapsed.count();
+    }
+    PhaseTimer(const PhaseTimer&) = delete;
+    PhaseTimer& operator=(const PhaseTimer&) = delete;
+
+   private:
+    const CpuExecutor& executor_;
+    const char* name_;
+    std::chrono::steady_clock::time_point start_;
+  };
+
+  // Mutable so that the primitives stay const (as on the CUDA executor, where they only
+  // enqueue work); touched only by the calling thread, never by TBB workers.
+  mutable std::map<std::string, double> profile_ms_;
+};
+
+}  // namespace irgrid

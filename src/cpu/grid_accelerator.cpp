@@ -1,0 +1,96 @@
+// The irregular grid (and the uniform and two-level grids) built and traversed on the CPU.
+#include <algorithm>
+#include <chrono>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "core/build/build_grid.h"
+#include "core/grid/traverse.h"
+#include "cpu/cpu_executor.h"
+#include "cpu/structures.h"
+
+namespace irgrid {
+namespace {
+
+const char* shape_name(BuildConfig::Shape shape) {
+  switch (shape) {
+    case BuildConfig::Shape::irregular:
+      return "irregular";
+    case BuildConfig::Shape::two_level:
+      return "two-level";
+    case BuildConfig::Shape::uniform:
+      return "uniform";
+  }
+  return "grid";
+}
+
+class GridCpu final : public Accelerator {
+ public:
+  GridCpu(const Scene& scene, const BuildConfig& config) : name_(shape_name(config.shape)) {
+    const auto start = std::chrono::steady_clock::now();
+    CpuExecutor exec;
+    grid_.triangles.resize(scene.triangles.size());
+    tbb::parallel_for(std::size_t(0), scene.triangles.size(), [&](std::size_t i) {
+      const auto& tri = scene.triangles[i];
+      grid_.triangles[i] = {Vec3<float>::from(scene.vertices[tri[0]]),
+                            Vec3<float>::from(scene.vertices[tri[1]]),
+                            Vec3<float>::from(scene.vertices[tri[2]])};
+    });
+    if (!grid_.triangles.empty()) build_grid(exec, grid_, config, info_.phases_ms);
+    info_.build_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    record_statistics();
+  }
+
+  std::string structure() const override { return name_; }
+  std::string backend() const override { return "cpu"; }
+  const BuildInfo& build_info() const override { return info_; }
+
+  void trace(std::span<const Ray> rays, std::span<Hit> hits, Query query) const override {
+    check_trace_spans(rays, hits);
+    if (grid_.triangles.empty()) {
+      std::fill(hits.begin(), hits.end(), Hit{});
+      return;
+    }
+    const GridView view = this->view();
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rays.size(), 64), [&](const auto& range) {
+      for (std::size_t i = range.begin(); i != range.end(); ++i)
+        hits[i] = query == Query::closest ? traverse_grid<Query::closest>(view, rays[i])
+                                          : traverse_grid<Query::any>(view, rays[i]);
+    });
+  }
+
+  /// The grid's arrays, for tests and statistics.
+  GridView view() const {
+    return {grid_.info, grid_.entries.data(), grid_.cells.data(), grid_.refs.data(),
+            grid_.triangles.data()};
+  }
+
+ private:
+  void record_statistics() {
+    const GridInfo& g = grid_.info;
+    info_.counts = {{"cells", g.num_cells},
+                    {"references", g.num_refs},
+                    {"entries", g.num_entries},
+                    {"top_x", std::uint64_t(g.top_dims[0])},
+                    {"top_y", std::uint64_t(g.top_dims[1])},
+                    {"top_z", std::uint64_t(g.top_dims[2])},
+                    {"depth", std::uint64_t(g.shift)}};
+    info_.memory_bytes = g.num_cells * sizeof(Cell) + g.num_refs * sizeof(std::uint32_t) +
+                         g.num_entries * sizeof(Entry) +
+                         grid_.triangles.size() * sizeof(TriangleVertices);
+  }
+
+  std::string name_;
+  GridArrays<CpuExecutor> grid_;
+  BuildInfo info_;
+};
+
+}  // namespace
+
+std::unique_ptr<Accelerator> make_grid_cpu(const Scene& scene, const BuildConfig& config) {
+  return std::make_unique<GridCpu>(scene, config);
+}
+
+}  // namespace irgrid

@@ -1,0 +1,155 @@
+// Invariants of the built grid: cells tile the grid, the voxel map finds the owner of every
+// voxel, lists are sorted and unique, and no triangle touching a cell is missing from its list.
+#include <gtest/gtest.h>
+
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <cstring>
+
+#include "core/random.h"
+#include "core/triangle_box.h"
+#include "grid_test_support.h"
+
+namespace irgrid {
+namespace {
+
+using testing::build_test_grid;
+
+const std::vector<std::string> kScenes = {"builtin:cornell",     "builtin:teapot-stadium:4000",
+                                          "builtin:soup:3000",   "builtin:hairball:5000",
+                                          "builtin:sphere:2000", "builtin:cube"};
+
+std::uint64_t cell_volume(const Cell& c) {
+  return std::uint64_t(c.hi[0] - c.lo[0]) * std::uint64_t(c.hi[1] - c.lo[1]) *
+         std::uint64_t(c.hi[2] - c.lo[2]);
+}
+
+class GridBuild : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(GridBuild, CellsTileTheVirtualGridExactly) {
+  const auto grid = build_test_grid(load_scene(GetParam()));
+  const GridInfo& info = grid.info;
+  ASSERT_EQ(grid.cells.size(), info.num_cells);
+  std::uint64_t volume = 0;
+  for (const Cell& c : grid.cells) {
+    for (int a = 0; a < 3; ++a) {
+      ASSERT_LE(0, c.lo[a]);
+      ASSERT_LT(c.lo[a], c.hi[a]);
+      ASSERT_LE(c.hi[a], info.virtual_dims[a]);
+    }
+    volume += cell_volume(c);
+  }
+  // Disjoint cells (checked through the voxel map below) whose volumes add up to the grid's.
+  EXPECT_EQ(volume,
+            std::uint64_t(info.virtual_dims[0]) * info.virtual_dims[1] * info.virtual_dims[2]);
+}
+
+TEST_P(GridBuild, VoxelMapReturnsTheCellContainingEachVoxel) {
+  const auto grid = build_test_grid(load_scene(GetParam()));
+  const GridInfo& info = grid.info;
+  Pcg32 rng;
+  rng.seed(17);
+  std::vector<std::uint32_t> owners(info.num_cells, 0);
+  for (int k = 0; k < 20000; ++k) {
+    const Voxel v{std::int32_t(rng.next_u32() % std::uint32_t(info.virtual_dims[0])),
+                  std::int32_t(rng.next_u32() % std::uint32_t(info.virtual_dims[1])),
+                  std::int32_t(rng.next_u32() % std::uint32_t(info.virtual_dims[2]))};
+    const std::uint32_t id = lookup_cell(info, grid.entries.data(), v);
+    ASSERT_LT(id, info.num_cells);
+    const Cell& c = grid.cells[id];
+    for (int a = 0; a < 3; ++a)
+      ASSERT_TRUE(c.lo[a] <= v[a] && v[a] < c.hi[a]) << "voxel outside its cell";
+  }
+  // Every cell owns its own corner voxels.
+  for (std::uint32_t id = 0; id < info.num_cells; ++id) {
+    const Cell& c = grid.cells[id];
+    ASSERT_EQ(lookup_cell(info, grid.entries.data(), Voxel{c.lo[0], c.lo[1], c.lo[2]}), id);
+    ASSERT_EQ(lookup_cell(info, grid.entries.data(), Voxel{c.hi[0] - 1, c.hi[1] - 1, c.hi[2] - 1}),
+              id);
+  }
+}
+
+TEST_P(GridBuild, ListsAreSortedUniqueAndCoverTheReferenceArray) {
+  const auto grid = build_test_grid(load_scene(GetParam()));
+  std::uint64_t listed = 0;
+  for (const Cell& c : grid.cells) {
+    ASSERT_LE(c.begin, c.end);
+    ASSERT_LE(c.end, grid.info.num_refs);
+    for (std::uint32_t r = c.begin + 1; r < c.end; ++r)
+      ASSERT_LT(grid.refs[r - 1], grid.refs[r]);
+    for (std::uint32_t r = c.begin; r < c.end; ++r)
+      ASSERT_LT(grid.refs[r], grid.info.num_triangles);
+    listed += c.end - c.begin;
+  }
+  EXPECT_EQ(listed, grid.info.num_refs);
+}
+
+TEST_P(GridBuild, EveryTriangleTouchingACellIsInItsList) {
+  const Scene scene = load_scene(GetParam());
+  const auto grid = build_test_grid(scene);
+  const GridInfo& info = grid.info;
+  std::size_t overlaps = 0;
+  // Every cell of small grids; an even sample of about 1500 cells of larger ones.
+  const std::size_t stride = std::max<std::size_t>(1, grid.cells.size() / 1500);
+  for (std::size_t id = 0; id < grid.cells.size(); id += stride) {
+    const Cell& c = grid.cells[id];
+    Vec3<float> lo, hi;
+    for (int a = 0; a < 3; ++a)
+      lo[a] = voxel_to_world(info, a, c.lo[a]), hi[a] = voxel_to_world(info, a, c.hi[a]);
+    const auto* list_begin = grid.refs.data() + c.begin;
+    const auto* list_end = grid.refs.data() + c.end;
+    for (std::uint32_t t = 0; t < info.num_triangles; ++t) {
+      const auto& tri = grid.triangles[t];
+      if (!triangle_overlaps_box(tri.p0, tri.p1, tri.p2, lo, hi, 0.f)) continue;
+      ++overlaps;
+      ASSERT_TRUE(std::binary_search(list_begin, list_end, t)) << "triangle " << t << " missing";
+    }
+  }
+  EXPECT_GT(overlaps, 0u);
+}
+
+TEST_P(GridBuild, SameGridWhateverTheThreadCount) {
+  const Scene scene = load_scene(GetParam());
+  auto build_with = [&](int threads) {
+    tbb::global_control control(tbb::global_control::max_allowed_parallelism, threads);
+    return build_test_grid(scene);
+  };
+  const auto one = build_with(1), two = build_with(2);
+  ASSERT_EQ(std::memcmp(&one.info, &two.info, sizeof(GridInfo)), 0);
+  ASSERT_EQ(one.entries.size(), two.entries.size());
+  EXPECT_EQ(std::memcmp(one.entries.data(), two.entries.data(), one.entries.size() * sizeof(Entry)),
+            0);
+  ASSERT_EQ(one.cells.size(), two.cells.size());
+  EXPECT_EQ(std::memcmp(one.cells.data(), two.cells.data(), one.cells.size() * sizeof(Cell)), 0);
+  EXPECT_EQ(one.refs, two.refs);
+}
+
+INSTANTIATE_TEST_SUITE_P(Builtin, GridBuild, ::testing::ValuesIn(kScenes), [](const auto& info) {
+  std::string name = info.param.substr(8);
+  for (char& c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+  return name;
+});
+
+TEST(GridLimits, InvalidParametersNameTheValue) {
+  const Scene scene = load_scene("builtin:cube");
+  BuildConfig config;
+  config.lambda1 = 0;
+  try {
+    build_test_grid(scene, config);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ErrorCode::invalid_argument);
+    EXPECT_NE(std::string(e.what()).find("lambda1"), std::string::npos);
+  }
+  config = {};
+  config.lambda1 = 1e12f;
+  EXPECT_THROW(build_test_grid(scene, config), Error);
+  config = {};
+  config.lambda2 = -1;
+  EXPECT_THROW(build_test_grid(scene, config), Error);
+}
+
+}  // namespace
+}  // namespace irgrid

@@ -1,0 +1,155 @@
+// Grid traversal equals the double-precision reference on adversarial rays, degenerate scenes
+// and extreme parameters.
+#include <gtest/gtest.h>
+
+#include <limits>
+
+#include "core/random.h"
+#include "grid_test_support.h"
+#include "irgrid/accelerator.h"
+#include "irgrid/rays.h"
+#include "irgrid/validate.h"
+
+namespace irgrid {
+namespace {
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+Scene scene_from_triangles(const std::vector<std::array<Vec3f, 3>>& triangles) {
+  Scene scene;
+  scene.name = "test";
+  for (const auto& tri : triangles) {
+    const auto base = std::uint32_t(scene.vertices.size());
+    for (const auto& v : tri)
+      scene.vertices.push_back(v);
+    scene.triangles.push_back({base, base + 1, base + 2});
+  }
+  drop_invalid_triangles(scene);
+  return scene;
+}
+
+/// Rays that start on cell faces and grid boundaries, run along grid planes and axes, start
+/// inside cells with tmin > 0, stop early with tmax, and come from far outside.
+std::vector<Ray> adversarial_rays(const Scene& scene) {
+  const auto grid = testing::build_test_grid(scene);
+  const GridInfo& info = grid.info;
+  std::vector<Ray> rays = random_rays(scene.bounds(), 2000, 5);
+  Pcg32 rng;
+  rng.seed(99);
+  auto plane = [&](int a, const Cell& c, bool upper) {
+    return voxel_to_world(info, a, upper ? c.hi[a] : c.lo[a]);
+  };
+  for (int k = 0; k < 1500 && !grid.cells.empty(); ++k) {
+    const Cell& c = grid.cells[rng.next_u32() % grid.cells.size()];
+    const int a = int(rng.next_u32() % 3);
+    Ray ray{};
+    for (int b = 0; b < 3; ++b)
+      ray.org[b] = plane(b, c, false) + rng.next_float() * (plane(b, c, true) - plane(b, c, false));
+    ray.org[a] = plane(a, c, rng.next_u32() & 1);  // exactly on a face
+    if (k % 3 == 0) {                              // along an axis
+      ray.dir[int(rng.next_u32() % 3)] = (rng.next_u32() & 1) ? 1.f : -1.f;
+    } else {
+      for (float& d : ray.dir)
+        d = rng.next_float() - 0.5f;
+    }
+    ray.tmin = (k % 5 == 0) ? 0.01f * scene.bounds().diagonal() : 0.f;
+    ray.tmax = (k % 7 == 0) ? 0.2f * scene.bounds().diagonal() : kInf;
+    rays.push_back(ray);
+    Ray from_outside = ray;  // the same line, started far away
+    for (int b = 0; b < 3; ++b)
+      from_outside.org[b] -= 10 * scene.bounds().diagonal() * ray.dir[b];
+    from_outside.tmin = 0, from_outside.tmax = kInf;
+    rays.push_back(from_outside);
+  }
+  // Axis-parallel rays through vertices and edge midpoints.
+  for (std::size_t t = 0; t < scene.triangles.size() && t < 300; ++t) {
+    const auto& v = scene.vertices[scene.triangles[t][0]];
+    const auto& w = scene.vertices[scene.triangles[t][1]];
+    for (int a = 0; a < 3; ++a) {
+      Ray ray{{v[0], v[1], v[2]}, 0, {0, 0, 0}, kInf};
+      ray.org[a] = scene.bounds().lo[a] - 1;
+      ray.dir[a] = 1;
+      rays.push_back(ray);
+      Ray mid{
+          {0.5f * (v[0] + w[0]), 0.5f * (v[1] + w[1]), 0.5f * (v[2] + w[2])}, 0, {0, 0, 0}, kInf};
+      mid.org[a] = scene.bounds().hi[a] + 1;
+      mid.dir[a] = -1;
+      rays.push_back(mid);
+    }
+  }
+  return rays;
+}
+
+void expect_exact(const Scene& scene, const std::string& structure, const BuildConfig& config,
+                  const std::vector<Ray>& rays, const std::string& what) {
+  AcceleratorOptions options;
+  options.grid = config;
+  const auto accelerator = make_accelerator(scene, structure, options);
+  const ReferenceTracer reference(scene);
+  for (Query query : {Query::closest, Query::any}) {
+    std::vector<Hit> hits(rays.size());
+    accelerator->trace(rays, hits, query);
+    const auto result = validate_hits(reference, scene, rays, hits, query, rays.size());
+    EXPECT_EQ(result.mismatches, 0u)
+        << what << " " << structure << (query == Query::any ? " any" : " closest") << ": "
+        << (result.examples.empty() ? "" : result.examples[0]);
+  }
+}
+
+TEST(GridTraversal, AdversarialRaysOnBuiltinScenes) {
+  for (const char* spec : {"builtin:cornell", "builtin:teapot-stadium:3000", "builtin:soup:2000",
+                           "builtin:hairball:4000", "builtin:cube"}) {
+    const Scene scene = load_scene(spec);
+    const auto rays = adversarial_rays(scene);
+    for (const char* structure : {"irregular", "two-level", "uniform"})
+      expect_exact(scene, structure, {}, rays, spec);
+  }
+}
+
+TEST(GridTraversal, DegenerateScenes) {
+  const std::vector<std::pair<std::string, std::vector<std::array<Vec3f, 3>>>> scenes = {
+      {"one triangle", {{{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}}}},
+      {"coplanar axis-aligned",
+       {{{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}},
+        {{{1, 0, 0}, {1, 1, 0}, {0, 1, 0}}},
+        {{{2, 0, 0}, {3, 0, 0}, {2, 5, 0}}},
+        {{{-4, -4, 0}, {-3, -4, 0}, {-4, -3, 0}}}}},
+      {"flat in y", {{{{0, 2, 0}, {1, 2, 0}, {0, 2, 1}}}, {{{5, 2, 5}, {6, 2, 5}, {5, 2, 7}}}}},
+      {"tiny and huge",
+       {{{{0, 0, 0}, {1e-4f, 0, 0}, {0, 1e-4f, 0}}},
+        {{{-1e4f, -1e4f, 5}, {1e4f, -1e4f, 5}, {0, 1e4f, 5}}}}},
+  };
+  for (const auto& [what, triangles] : scenes) {
+    const Scene scene = scene_from_triangles(triangles);
+    const auto rays = adversarial_rays(scene);
+    for (const char* structure : {"irregular", "two-level", "uniform"})
+      expect_exact(scene, structure, {}, rays, what);
+  }
+}
+
+TEST(GridTraversal, ScenesWithoutValidTrianglesMissEverything) {
+  const Scene scene = scene_from_triangles({{{{1, 1, 1}, {1, 1, 1}, {1, 1, 1}}}});
+  ASSERT_EQ(scene.triangle_count(), 0u);
+  const auto accelerator = make_accelerator(scene, "irregular");
+  const std::vector<Ray> rays = {{{0, 0, 0}, 0, {1, 1, 1}, kInf}};
+  std::vector<Hit> hits(1);
+  accelerator->trace(rays, hits, Query::closest);
+  EXPECT_FALSE(hits[0].hit());
+}
+
+TEST(GridTraversal, ExtremeParameters) {
+  const Scene scene = load_scene("builtin:teapot-stadium:3000");
+  const auto rays = adversarial_rays(scene);
+  std::vector<BuildConfig> configs(6);
+  configs[0].lambda1 = 1e-4f;
+  configs[1].lambda1 = 8.f;
+  configs[2].lambda2 = 0.f;
+  configs[3].lambda2 = 64.f;
+  configs[4].alpha = 0.f, configs[4].expansion_passes = 0;
+  configs[5].alpha = 1.f;
+  for (std::size_t i = 0; i < configs.size(); ++i)
+    expect_exact(scene, "irregular", configs[i], rays, "config " + std::to_string(i));
+}
+
+}  // namespace
+}  // namespace irgrid
