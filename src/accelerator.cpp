@@ -16,6 +16,12 @@ void check_trace_spans(std::span<const Ray> rays, std::span<Hit> hits) {
                 fmt::format("trace: {} rays but room for {} hits", rays.size(), hits.size()));
 }
 
+void Accelerator::trace_counted(std::span<const Ray>, std::span<Hit>, std::span<RayWork>,
+                                Query) const {
+  throw Error(ErrorCode::invalid_argument,
+              fmt::format("structure '{}' does not count its work per ray", structure()));
+}
+
 std::vector<std::string> available_structures() {
   std::vector<std::string> names;
   names.push_back("irregular");

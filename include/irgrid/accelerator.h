@@ -16,10 +16,18 @@ namespace irgrid {
 /// Figures a structure reports about its build.
 struct BuildInfo {
   double build_ms = 0;                      ///< wall time of the build, allocation included
-  std::map<std::string, double> phases_ms;  ///< per-phase wall times, in build order
+  std::map<std::string, double> phases_ms;  ///< per-phase wall times (keys sorted by name)
   std::uint64_t memory_bytes = 0;           ///< bytes of the final structure (triangles included)
-  std::map<std::string, std::uint64_t>
-      counts;  ///< structure-specific counts (cells, references, ...)
+  /// Structure-specific counts (cells, references, ...).
+  std::map<std::string, std::uint64_t> counts;
+  /// Bytes of each array of the final structure.
+  std::map<std::string, std::uint64_t> bytes;
+};
+
+/// Work done for each ray (heat maps, statistics).
+struct RayWork {
+  std::uint32_t cells = 0;      ///< cells (or nodes) visited
+  std::uint32_t triangles = 0;  ///< ray/triangle tests
 };
 
 /// A built acceleration structure over one scene on one backend. Tracing is one call per batch
@@ -34,6 +42,10 @@ class Accelerator {
   virtual std::string backend() const = 0;
   /// Traces rays[i] into hits[i] for every i; rays.size() must equal hits.size().
   virtual void trace(std::span<const Ray> rays, std::span<Hit> hits, Query query) const = 0;
+  /// Like trace, and also counts the work per ray into work[i]. Throws Error{invalid_argument}
+  /// for structures that cannot count (brute, embree).
+  virtual void trace_counted(std::span<const Ray> rays, std::span<Hit> hits,
+                             std::span<RayWork> work, Query query) const;
   virtual const BuildInfo& build_info() const = 0;
 };
 

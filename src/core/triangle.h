@@ -35,4 +35,18 @@ IRGRID_HD inline BoxF box_union(const BoxF& a, const BoxF& b) {
           {fmaxf(a.hi.x, b.hi.x), fmaxf(a.hi.y, b.hi.y), fmaxf(a.hi.z, b.hi.z)}};
 }
 
+/// Whether p lies in [lo - padding, hi + padding] on every axis.
+IRGRID_HD inline bool point_in_box(const Vec3<float>& p, const Vec3<float>& lo,
+                                   const Vec3<float>& hi, float padding) {
+  return p.x >= lo.x - padding && p.x <= hi.x + padding && p.y >= lo.y - padding &&
+         p.y <= hi.y + padding && p.z >= lo.z - padding && p.z <= hi.z + padding;
+}
+
+/// A cheap exact accept before the separating-axis test: a vertex inside the box means overlap.
+IRGRID_HD inline bool vertex_in_box(const TriangleVertices& t, const Vec3<float>& lo,
+                                    const Vec3<float>& hi, float padding) {
+  return point_in_box(t.p0, lo, hi, padding) || point_in_box(t.p1, lo, hi, padding) ||
+         point_in_box(t.p2, lo, hi, padding);
+}
+
 }  // namespace irgrid

@@ -9,6 +9,7 @@
 #include "core/grid/traverse.h"
 #include "cpu/cpu_executor.h"
 #include "cpu/structures.h"
+#include "irgrid/error.h"
 
 namespace irgrid {
 namespace {
@@ -61,6 +62,27 @@ class GridCpu final : public Accelerator {
     });
   }
 
+  void trace_counted(std::span<const Ray> rays, std::span<Hit> hits, std::span<RayWork> work,
+                     Query query) const override {
+    check_trace_spans(rays, hits);
+    if (work.size() != rays.size())
+      throw Error(ErrorCode::invalid_argument, "trace_counted: one RayWork per ray expected");
+    if (grid_.triangles.empty()) {
+      std::fill(hits.begin(), hits.end(), Hit{});
+      std::fill(work.begin(), work.end(), RayWork{});
+      return;
+    }
+    const GridView view = this->view();
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rays.size(), 64), [&](const auto& range) {
+      for (std::size_t i = range.begin(); i != range.end(); ++i) {
+        TraversalCounters counters;
+        hits[i] = query == Query::closest ? traverse_grid<Query::closest>(view, rays[i], &counters)
+                                          : traverse_grid<Query::any>(view, rays[i], &counters);
+        work[i] = {counters.cells, counters.triangles};
+      }
+    });
+  }
+
   /// The grid's arrays, for tests and statistics.
   GridView view() const {
     return {grid_.info, grid_.entries.data(), grid_.cells.data(), grid_.refs.data(),
@@ -77,9 +99,13 @@ class GridCpu final : public Accelerator {
                     {"top_y", std::uint64_t(g.top_dims[1])},
                     {"top_z", std::uint64_t(g.top_dims[2])},
                     {"depth", std::uint64_t(g.shift)}};
-    info_.memory_bytes = g.num_cells * sizeof(Cell) + g.num_refs * sizeof(std::uint32_t) +
-                         g.num_entries * sizeof(Entry) +
-                         grid_.triangles.size() * sizeof(TriangleVertices);
+    info_.bytes = {{"cells", std::uint64_t(g.num_cells) * sizeof(Cell)},
+                   {"references", std::uint64_t(g.num_refs) * sizeof(std::uint32_t)},
+                   {"voxel_map", std::uint64_t(g.num_entries) * sizeof(Entry)},
+                   {"triangles", std::uint64_t(grid_.triangles.size()) * sizeof(TriangleVertices)}};
+    info_.memory_bytes = 0;
+    for (const auto& [name, bytes] : info_.bytes)
+      info_.memory_bytes += bytes;
   }
 
   std::string name_;

@@ -28,8 +28,33 @@ void print_bench_table(const BenchResult& r) {
                run.rays, run.hits, run.median_ms, run.mrays_per_s, run.checked, run.mismatches);
 }
 
-void write_bench_json(const BenchResult& r, const std::string& path) {
-  const auto machine = machine_info();
+void print_comparison(const std::vector<BenchResult>& results) {
+  fmt::print("\ncomparison (MRays/s; ratio to {}):\n{:>4}  {:<8}", results.front().structure,
+             "view", "kind");
+  for (const auto& r : results)
+    fmt::print(" {:>16}", r.structure + "@" + r.backend);
+  fmt::print("\n");
+  for (std::size_t i = 0; i < results.front().runs.size(); ++i) {
+    const auto& first = results.front().runs[i];
+    fmt::print("{:>4}  {:<8}", first.view, first.kind);
+    for (const auto& r : results) {
+      const double ratio = first.mrays_per_s > 0 ? r.runs[i].mrays_per_s / first.mrays_per_s : 0.0;
+      fmt::print(" {:>9.2f} ({:.2f})", r.runs[i].mrays_per_s, ratio);
+    }
+    fmt::print("\n");
+  }
+  fmt::print("{:<14}", "build ms");
+  for (const auto& r : results)
+    fmt::print(" {:>16.1f}", r.build.build_ms);
+  fmt::print("\n{:<14}", "memory MiB");
+  for (const auto& r : results)
+    fmt::print(" {:>16.2f}", r.build.memory_bytes / 1048576.0);
+  fmt::print("\n");
+}
+
+namespace {
+
+nlohmann::json result_json(const BenchResult& r) {
   nlohmann::json runs = nlohmann::json::array();
   for (const auto& run : r.runs)
     runs.push_back({{"kind", run.kind},
@@ -40,21 +65,32 @@ void write_bench_json(const BenchResult& r, const std::string& path) {
                     {"mrays_per_s", run.mrays_per_s},
                     {"checked", run.checked},
                     {"mismatches", run.mismatches}});
-  const nlohmann::json out = {
-      {"irgrid_version", version()},
-      {"scene", r.scene},
-      {"triangles", r.triangles},
-      {"backend", r.backend},
-      {"structure", r.structure},
-      {"build_ms", r.build.build_ms},
-      {"build_phases_ms", r.build.phases_ms},
-      {"memory_bytes", r.build.memory_bytes},
-      {"counts", r.build.counts},
-      {"machine",
-       {{"cpu", machine.cpu_model},
-        {"threads", machine.tbb_threads},
-        {"gpu", machine.gpu.empty() ? nlohmann::json() : nlohmann::json(machine.gpu)}}},
-      {"runs", runs}};
+  return {{"scene", r.scene},
+          {"triangles", r.triangles},
+          {"backend", r.backend},
+          {"structure", r.structure},
+          {"build_ms", r.build.build_ms},
+          {"build_phases_ms", r.build.phases_ms},
+          {"memory_bytes", r.build.memory_bytes},
+          {"memory_breakdown_bytes", r.build.bytes},
+          {"counts", r.build.counts},
+          {"runs", runs}};
+}
+
+}  // namespace
+
+void write_bench_json(const std::vector<BenchResult>& results, const std::string& path) {
+  const auto machine = machine_info();
+  nlohmann::json out = result_json(results.front());
+  out["irgrid_version"] = version();
+  out["machine"] = {{"cpu", machine.cpu_model},
+                    {"threads", machine.tbb_threads},
+                    {"gpu", machine.gpu.empty() ? nlohmann::json() : nlohmann::json(machine.gpu)}};
+  if (results.size() > 1) {
+    out["compare"] = nlohmann::json::array();
+    for (const auto& r : results)
+      out["compare"].push_back(result_json(r));
+  }
   std::ofstream file(path);
   if (!file) throw Error(ErrorCode::io, fmt::format("{}: cannot create", path));
   file << out.dump(2) << '\n';

@@ -29,7 +29,11 @@ struct BenchResult {
 /// A table for people on stdout.
 void print_bench_table(const BenchResult& result);
 
-/// The stable JSON of docs/bench-json.md.
-void write_bench_json(const BenchResult& result, const std::string& path);
+/// MRays/s of every structure side by side, with the ratio of each to the first.
+void print_comparison(const std::vector<BenchResult>& results);
+
+/// The stable JSON of docs/bench-json.md: the first result at the top level, and all of them
+/// under "compare" when there are several.
+void write_bench_json(const std::vector<BenchResult>& results, const std::string& path);
 
 }  // namespace irgrid::cli

@@ -1,4 +1,4 @@
-// `irgrid bench`: builds a structure, traces the standard rays, validates, then reports speed.
+// `irgrid bench`: builds structures, traces the standard rays, validates, then reports speed.
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
@@ -17,8 +17,9 @@ namespace irgrid::cli {
 namespace {
 
 struct BenchOptions {
-  std::string scene, structure, backend = "cpu", kinds = "primary,ao,diffuse,random", views,
-                                views_file, rays_file, format = "irgrid", json;
+  std::string scene, kinds = "primary,ao,diffuse,random", views, views_file, rays_file,
+                     format = "irgrid", json, compare;
+  StructureOptions structure;
   int repeat = 5;
   std::uint64_t validate = 10000;
   bool any_hit = false;
@@ -31,29 +32,57 @@ double median(std::vector<double> values) {
   return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
 }
 
-/// Builds once to warm up, then `repeat` more times; keeps the last and the median time.
-std::unique_ptr<Accelerator> timed_build(const Scene& scene, const BenchOptions& o,
-                                         BuildInfo& info) {
+/// One structure under test: "name" or "name@backend" of --compare.
+struct Contender {
   AcceleratorOptions options;
-  options.backend = o.backend;
-  auto accelerator = make_accelerator(scene, o.structure, options);
-  std::vector<double> times;
-  for (int i = 0; i < o.repeat; ++i) {
-    accelerator.reset();
-    accelerator = make_accelerator(scene, o.structure, options);
-    times.push_back(accelerator->build_info().build_ms);
+  std::string structure;
+  std::unique_ptr<Accelerator> accelerator;
+  BenchResult result;
+};
+
+std::vector<Contender> parse_contenders(const BenchOptions& o) {
+  std::vector<std::string> names = split_list(o.compare);
+  if (names.empty())
+    names.push_back(o.structure.structure.empty() ? default_structure() : o.structure.structure);
+  std::vector<Contender> contenders;
+  for (const auto& name : names) {
+    Contender c;
+    const auto at = name.find('@');
+    c.structure = name.substr(0, at);
+    c.options.backend = at == std::string::npos ? o.structure.backend : name.substr(at + 1);
+    c.options.grid = o.structure.grid;
+    contenders.push_back(std::move(c));
   }
-  info = accelerator->build_info();
-  info.build_ms = median(times);
-  return accelerator;
+  return contenders;
+}
+
+/// Builds once to warm up, then `repeat` more times; keeps the last and the median time.
+void timed_build(const Scene& scene, int repeat, Contender& c) {
+  c.accelerator = make_accelerator(scene, c.structure, c.options);
+  std::vector<double> times;
+  for (int i = 0; i < repeat; ++i) {
+    c.accelerator.reset();
+    c.accelerator = make_accelerator(scene, c.structure, c.options);
+    times.push_back(c.accelerator->build_info().build_ms);
+  }
+  c.result = {scene.name,
+              scene.triangle_count(),
+              c.accelerator->structure(),
+              c.accelerator->backend(),
+              c.accelerator->build_info(),
+              {}};
+  c.result.build.build_ms = median(times);
+  fmt::print(stderr, "built {} on {}: median {:.1f} ms\n", c.result.structure, c.result.backend,
+             c.result.build.build_ms);
 }
 
 BenchRun measure(const Scene& scene, const ReferenceTracer& reference,
                  const Accelerator& accelerator, std::span<const Ray> rays, Query query,
                  const BenchOptions& o, BenchRun run) {
   std::vector<Hit> hits(rays.size());
-  trace_with_progress(accelerator, rays, hits, query,
-                      fmt::format("{} view {} warm-up", run.kind, run.view));
+  trace_with_progress(
+      accelerator, rays, hits, query,
+      fmt::format("{} {} view {} warm-up", accelerator.structure(), run.kind, run.view));
   std::vector<double> times;
   for (int i = 0; i < o.repeat; ++i) {
     const auto start = std::chrono::steady_clock::now();
@@ -70,7 +99,8 @@ BenchRun measure(const Scene& scene, const ReferenceTracer& reference,
     run.checked = validation.checked;
     run.mismatches = validation.mismatches;
     for (const auto& example : validation.examples)
-      fmt::print(stderr, "mismatch ({} view {}): {}\n", run.kind, run.view, example);
+      fmt::print(stderr, "mismatch ({} {} view {}): {}\n", accelerator.structure(), run.kind,
+                 run.view, example);
   }
   return run;
 }
@@ -93,53 +123,58 @@ std::vector<int> chosen_views(const BenchOptions& o, std::size_t available) {
   return views;
 }
 
-void run_standard_kinds(const Scene& scene, const ReferenceTracer& reference,
-                        const Accelerator& accelerator, const BenchOptions& o,
-                        BenchResult& result) {
+/// Every contender traces the same rays: secondary rays come from the primary hits of one fixed
+/// structure (the default), built once.
+void run_standard_kinds(const Scene& scene, const ReferenceTracer& reference, const BenchOptions& o,
+                        std::vector<Contender>& contenders) {
   const auto cameras = scene_views(scene, o.views_file);
   std::vector<RayKind> kinds;
   for (const auto& name : split_list(o.kinds))
     kinds.push_back(parse_ray_kind(name));
-  // Secondary rays come from the primary hits of one fixed structure, so that every structure
-  // under test gets the same rays.
   std::unique_ptr<Accelerator> generator;
-  const Accelerator* ray_tracer = &accelerator;
-  if (accelerator.structure() != default_structure() || accelerator.backend() != "cpu") {
-    generator = make_accelerator(scene, default_structure());
-    ray_tracer = generator.get();
-  }
+  const bool secondary = std::any_of(kinds.begin(), kinds.end(), [](RayKind k) {
+    return k == RayKind::ao || k == RayKind::diffuse;
+  });
+  if (secondary) generator = make_accelerator(scene, default_structure());
   for (int view : chosen_views(o, cameras.size()))
     for (RayKind kind : kinds) {
       const auto rays =
-          generate_rays(scene, cameras[std::size_t(view)], kind, o.config, ray_tracer);
+          generate_rays(scene, cameras[std::size_t(view)], kind, o.config, generator.get());
       const Query query = kind == RayKind::ao ? Query::any : Query::closest;
-      result.runs.push_back(
-          measure(scene, reference, accelerator, rays, query, o, {to_string(kind), view}));
+      for (auto& c : contenders)
+        c.result.runs.push_back(
+            measure(scene, reference, *c.accelerator, rays, query, o, {to_string(kind), view}));
     }
 }
 
 int run_bench(BenchOptions o) {
   if (o.repeat < 1) throw Error(ErrorCode::invalid_argument, "--repeat must be at least 1");
-  if (o.structure.empty()) o.structure = default_structure();
   if (o.config.count == 0)
     o.config.count = std::uint64_t(o.config.width) * std::uint64_t(o.config.height);
   const Scene scene = load_scene_reporting(o.scene);
-  BenchResult result{scene.name, scene.triangle_count(), o.structure, "", {}, {}};
-  const auto accelerator = timed_build(scene, o, result.build);
-  result.backend = accelerator->backend();
+  auto contenders = parse_contenders(o);
+  for (auto& c : contenders)
+    timed_build(scene, o.repeat, c);
   const ReferenceTracer reference(scene);
   if (!o.rays_file.empty()) {
     const auto rays = read_rays(o.rays_file, parse_ray_format(o.format));
-    result.runs.push_back(measure(scene, reference, *accelerator, rays,
-                                  o.any_hit ? Query::any : Query::closest, o, {"file", 0}));
+    for (auto& c : contenders)
+      c.result.runs.push_back(measure(scene, reference, *c.accelerator, rays,
+                                      o.any_hit ? Query::any : Query::closest, o, {"file", 0}));
   } else {
-    run_standard_kinds(scene, reference, *accelerator, o, result);
+    run_standard_kinds(scene, reference, o, contenders);
   }
-  print_bench_table(result);
-  if (!o.json.empty()) write_bench_json(result, o.json);
+  std::vector<BenchResult> results;
+  for (auto& c : contenders)
+    results.push_back(std::move(c.result));
+  for (const auto& result : results)
+    print_bench_table(result);
+  if (results.size() > 1) print_comparison(results);
+  if (!o.json.empty()) write_bench_json(results, o.json);
   std::uint64_t mismatches = 0;
-  for (const auto& run : result.runs)
-    mismatches += run.mismatches;
+  for (const auto& result : results)
+    for (const auto& run : result.runs)
+      mismatches += run.mismatches;
   if (mismatches == 0) return 0;
   fmt::print(stderr, "irgrid: validation failed: {} mismatching rays\n", mismatches);
   return 1;
@@ -153,8 +188,10 @@ void add_bench_command(CLI::App& app) {
   auto* cmd =
       app.add_subcommand("bench", "Build, trace the standard rays, validate, report MRays/s");
   cmd->add_option("scene", o->scene, "Scene file or builtin:NAME[:N]")->required();
-  cmd->add_option("--structure", o->structure, "Structure (default: fastest built in)");
-  cmd->add_option("--backend", o->backend, "cpu, cuda or auto")->capture_default_str();
+  add_structure_options(cmd, o->structure);
+  cmd->add_option("--compare", o->compare,
+                  "Structures to run on the same rays, e.g. irregular,embree,two-level,uniform "
+                  "(NAME@BACKEND picks a backend); ratios are to the first");
   cmd->add_option("--kinds", o->kinds, "Ray kinds, comma-separated")->capture_default_str();
   cmd->add_option("--views", o->views, "View indices, comma-separated (default: all)");
   cmd->add_option("--views-file", o->views_file, "views.json to take the cameras from");
@@ -171,7 +208,7 @@ void add_bench_command(CLI::App& app) {
   cmd->add_option("--repeat", o->repeat, "Timed repetitions (median reported)")
       ->capture_default_str();
   cmd->add_option("--validate", o->validate,
-                  "Rays per run checked against double brute force (0: off)")
+                  "Rays per run checked against the double reference (0: off)")
       ->capture_default_str();
   cmd->add_option("--json", o->json, "Write results as JSON to this file");
   cmd->callback([o] {

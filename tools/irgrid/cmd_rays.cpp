@@ -9,8 +9,8 @@ namespace irgrid::cli {
 namespace {
 
 struct RaysOptions {
-  std::string scene, kind = "primary", output, format = "irgrid", views_file, structure,
-                     backend = "cpu";
+  std::string scene, kind = "primary", output, format = "irgrid", views_file;
+  StructureOptions structure;
   int view = 0;
   RayConfig config;
 };
@@ -21,9 +21,7 @@ void run_rays(const RaysOptions& o) {
   const Scene scene = load_scene_reporting(o.scene);
   const Camera camera = pick_view(scene, o.view, o.views_file);
   std::unique_ptr<Accelerator> tracer;
-  if (kind == RayKind::ao || kind == RayKind::diffuse)
-    tracer =
-        build_reporting(scene, o.structure.empty() ? default_structure() : o.structure, o.backend);
+  if (kind == RayKind::ao || kind == RayKind::diffuse) tracer = build_reporting(scene, o.structure);
   const auto rays = generate_rays(scene, camera, kind, o.config, tracer.get());
   write_rays(o.output, rays, format);
   fmt::print("wrote {} {} rays ({} format, {} bytes each) to {}\n", rays.size(), o.kind, o.format,
@@ -51,9 +49,7 @@ void add_rays_command(CLI::App& app) {
   cmd->add_option("-o,--output", o->output, "Ray file to write")->required();
   cmd->add_option("--format", o->format, "irgrid (32 B/ray) or hagrid (24 B/ray)")
       ->capture_default_str();
-  cmd->add_option("--structure", o->structure,
-                  "Structure that traces the primary rays of ao/diffuse");
-  cmd->add_option("--backend", o->backend, "cpu, cuda or auto")->capture_default_str();
+  add_structure_options(cmd, o->structure);
   cmd->callback([o] { run_rays(*o); });
 }
 

@@ -1,4 +1,5 @@
 // `irgrid render`: a picture of a scene view (shaded, normals, triangle ids or ambient occlusion).
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -17,8 +18,8 @@ namespace irgrid::cli {
 namespace {
 
 struct RenderOptions {
-  std::string scene, output, mode = "shaded", views_file, eye, target, up = "0,1,0", structure,
-                             backend = "cpu";
+  std::string scene, output, mode = "shaded", views_file, eye, target, up = "0,1,0";
+  StructureOptions structure;
   int view = 0, width = 1024, height = 1024, spp = 16;
   float fov = 60;
 };
@@ -84,26 +85,69 @@ Camera choose_camera(const Scene& scene, const RenderOptions& o) {
                 parse_vec3(o.up, "--up"), o.fov};
 }
 
+/// Blue (little work) to red (most work) through green and yellow.
+Rgb heat_colour(float x) {
+  x = std::clamp(x, 0.f, 1.f);
+  const Rgb stops[5] = {{0.02f, 0.02f, 0.3f},
+                        {0.f, 0.4f, 1.f},
+                        {0.f, 0.9f, 0.3f},
+                        {1.f, 0.9f, 0.f},
+                        {1.f, 0.05f, 0.f}};
+  const float scaled = x * 4.f;
+  const int i = std::min(int(scaled), 3);
+  const float f = scaled - float(i);
+  return stops[i] * (1.f - f) + stops[i + 1] * f;
+}
+
+/// Per-pixel work (cells visited + triangles tested) as colours, scaled to the 99th percentile.
+std::vector<Rgb> heat_map(const Accelerator& tracer, std::span<const Ray> rays,
+                          std::span<Hit> hits) {
+  std::vector<RayWork> work(rays.size());
+  tracer.trace_counted(rays, hits, work, Query::closest);
+  std::vector<std::uint32_t> totals(work.size());
+  double sum = 0;
+  for (std::size_t i = 0; i < work.size(); ++i)
+    sum += totals[i] = work[i].cells + work[i].triangles;
+  std::vector<std::uint32_t> sorted = totals;
+  const std::size_t p99 = sorted.size() * 99 / 100;
+  std::nth_element(sorted.begin(), sorted.begin() + std::ptrdiff_t(p99), sorted.end());
+  const float scale = float(std::max<std::uint32_t>(sorted[p99], 1));
+  fmt::print("work per ray (cells + triangle tests): mean {:.1f}, 99th percentile {:.0f}, max {}\n",
+             sum / double(work.size()), scale, *std::max_element(totals.begin(), totals.end()));
+  std::vector<Rgb> colours(rays.size());
+  for (std::size_t i = 0; i < rays.size(); ++i)
+    colours[i] = heat_colour(float(totals[i]) / scale);
+  return colours;
+}
+
 void run_render(const RenderOptions& o) {
-  if (o.mode != "shaded" && o.mode != "normal" && o.mode != "primid" && o.mode != "ao")
+  const std::vector<std::string> modes = {"shaded", "normal", "primid", "ao", "heatmap"};
+  if (std::find(modes.begin(), modes.end(), o.mode) == modes.end())
     throw Error(ErrorCode::invalid_argument,
-                fmt::format("--mode '{}': expected shaded, normal, primid or ao", o.mode));
+                fmt::format("--mode '{}': expected shaded, normal, primid, ao or heatmap", o.mode));
   const Scene scene = load_scene_reporting(o.scene);
   const Camera camera = choose_camera(scene, o);
-  const auto tracer =
-      build_reporting(scene, o.structure.empty() ? default_structure() : o.structure, o.backend);
+  const auto tracer = build_reporting(scene, o.structure);
   const auto rays = primary_rays(camera, o.width, o.height);
   std::vector<Hit> hits(rays.size());
-  trace_with_progress(*tracer, rays, hits, Query::closest, "primary rays");
-  std::vector<float> visibility;
-  if (o.mode == "ao") visibility = ambient_occlusion(scene, *tracer, rays, hits, o.spp);
+  std::vector<Rgb> colours;
+  if (o.mode == "heatmap") {
+    colours = heat_map(*tracer, rays, hits);
+  } else {
+    trace_with_progress(*tracer, rays, hits, Query::closest, "primary rays");
+    std::vector<float> visibility;
+    if (o.mode == "ao") visibility = ambient_occlusion(scene, *tracer, rays, hits, o.spp);
+    colours.resize(rays.size());
+    tbb::parallel_for(std::size_t(0), rays.size(), [&](std::size_t i) {
+      colours[i] = o.mode == "ao"
+                       ? (hits[i].hit() ? Rgb{1, 1, 1} * visibility[i] : background(rays[i]))
+                       : shade(o.mode, scene, rays[i], hits[i]);
+    });
+  }
   std::vector<std::uint8_t> pixels(rays.size() * 3);
-  tbb::parallel_for(std::size_t(0), rays.size(), [&](std::size_t i) {
-    Rgb c = o.mode == "ao" ? (hits[i].hit() ? Rgb{1, 1, 1} * visibility[i] : background(rays[i]))
-                           : shade(o.mode, scene, rays[i], hits[i]);
-    pixels[3 * i] = to_byte(c.x), pixels[3 * i + 1] = to_byte(c.y),
-               pixels[3 * i + 2] = to_byte(c.z);
-  });
+  for (std::size_t i = 0; i < rays.size(); ++i)
+    pixels[3 * i] = to_byte(colours[i].x), pixels[3 * i + 1] = to_byte(colours[i].y),
+               pixels[3 * i + 2] = to_byte(colours[i].z);
   write_png(o.output, o.width, o.height, pixels);
   fmt::print("wrote {}x{} {} image to {}\n", o.width, o.height, o.mode, o.output);
 }
@@ -125,12 +169,11 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("--fov", o->fov, "Vertical field of view in degrees")->capture_default_str();
   cmd->add_option("-w,--width", o->width, "Image width")->capture_default_str();
   cmd->add_option("-h,--height", o->height, "Image height")->capture_default_str();
-  cmd->add_option("--mode", o->mode, "shaded, normal, primid or ao")->capture_default_str();
+  cmd->add_option("--mode", o->mode, "shaded, normal, primid, ao or heatmap")
+      ->capture_default_str();
   cmd->add_option("--spp", o->spp, "Ambient-occlusion rays per pixel (mode ao)")
       ->capture_default_str();
-  cmd->add_option("--structure", o->structure,
-                  "Structure to trace with (default: fastest built in)");
-  cmd->add_option("--backend", o->backend, "cpu, cuda or auto")->capture_default_str();
+  add_structure_options(cmd, o->structure);
   cmd->callback([o] { run_render(*o); });
 }
 

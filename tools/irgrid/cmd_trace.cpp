@@ -15,7 +15,8 @@ namespace irgrid::cli {
 namespace {
 
 struct TraceOptions {
-  std::string scene, rays_file, format = "irgrid", output, structure, backend = "cpu";
+  std::string scene, rays_file, format = "irgrid", output;
+  StructureOptions structure;
   std::optional<float> tmin, tmax;
   bool any_hit = false;
 };
@@ -38,8 +39,7 @@ void run_trace(const TraceOptions& o) {
     for (Ray& ray : rays)
       ray.tmin = o.tmin.value_or(ray.tmin), ray.tmax = o.tmax.value_or(ray.tmax);
   const Scene scene = load_scene_reporting(o.scene);
-  const auto tracer =
-      build_reporting(scene, o.structure.empty() ? default_structure() : o.structure, o.backend);
+  const auto tracer = build_reporting(scene, o.structure);
   std::vector<Hit> hits(rays.size());
   const auto start = std::chrono::steady_clock::now();
   trace_with_progress(*tracer, rays, hits, o.any_hit ? Query::any : Query::closest, "tracing");
@@ -69,9 +69,7 @@ void add_trace_command(CLI::App& app) {
   cmd->add_flag("--any-hit", o->any_hit,
                 "Occlusion query: t = 0 when occluded, infinity otherwise");
   cmd->add_option("-o,--output", o->output, "Hit file to write")->required();
-  cmd->add_option("--structure", o->structure,
-                  "Structure to trace with (default: fastest built in)");
-  cmd->add_option("--backend", o->backend, "cpu, cuda or auto")->capture_default_str();
+  add_structure_options(cmd, o->structure);
   cmd->callback([o] { run_trace(*o); });
 }
 

@@ -6,6 +6,7 @@
 namespace irgrid::cli {
 
 void add_info_command(CLI::App& app);
+void add_build_command(CLI::App& app);
 void add_rays_command(CLI::App& app);
 void add_trace_command(CLI::App& app);
 void add_render_command(CLI::App& app);

@@ -30,11 +30,48 @@ Scene load_scene_reporting(const std::string& spec) {
   return scene;
 }
 
-std::unique_ptr<Accelerator> build_reporting(const Scene& scene, const std::string& structure,
-                                             const std::string& backend) {
+void add_structure_options(CLI::App* command, StructureOptions& options) {
+  command->add_option("--structure", options.structure,
+                      "irregular (default), embree, two-level, uniform or brute");
+  command->add_option("--backend", options.backend, "cpu, cuda or auto")->capture_default_str();
+  BuildConfig& grid = options.grid;
+  command->add_option("--lambda1", grid.lambda1, "Top-level density")
+      ->capture_default_str()
+      ->group("Grid");
+  command->add_option("--lambda2", grid.lambda2, "Second-level (octree) density")
+      ->capture_default_str()
+      ->group("Grid");
+  command
+      ->add_option("--alpha", grid.alpha,
+                   "Merging stops when a sweep keeps alpha x the cells (<= 0: off)")
+      ->capture_default_str()
+      ->group("Grid");
+  command
+      ->add_option("--cost-ratio", grid.cost_ratio, "Traversal step cost in triangle tests (SAH)")
+      ->capture_default_str()
+      ->group("Grid");
+  command
+      ->add_option("--expansion-passes", grid.expansion_passes,
+                   "Exit-box expansion passes (0: off)")
+      ->capture_default_str()
+      ->group("Grid");
+  command
+      ->add_flag("--partial-expansion,!--no-partial-expansion", grid.partial_expansion,
+                 "Let cells grow part-way into neighbours (default on)")
+      ->group("Grid");
+  command
+      ->add_flag("--compress,!--no-compress", grid.compress,
+                 "16-byte cells when they fit (default on)")
+      ->group("Grid");
+}
+
+std::unique_ptr<Accelerator> build_reporting(const Scene& scene,
+                                             const StructureOptions& structure) {
   AcceleratorOptions options;
-  options.backend = backend;
-  auto accelerator = make_accelerator(scene, structure, options);
+  options.backend = structure.backend;
+  options.grid = structure.grid;
+  auto accelerator = make_accelerator(
+      scene, structure.structure.empty() ? default_structure() : structure.structure, options);
   fmt::print(stderr, "built {} on {} in {:.1f} ms\n", accelerator->structure(),
              accelerator->backend(), accelerator->build_info().build_ms);
   return accelerator;

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include <CLI/CLI.hpp>
+
 #include "irgrid/accelerator.h"
 #include "irgrid/scene.h"
 
@@ -16,9 +18,18 @@ namespace irgrid::cli {
 /// Loads a scene and prints a one-line summary plus its warnings on stderr.
 Scene load_scene_reporting(const std::string& spec);
 
+/// Options shared by every command that builds a structure.
+struct StructureOptions {
+  std::string structure;  ///< empty: default_structure()
+  std::string backend = "cpu";
+  BuildConfig grid;
+};
+
+/// Adds --structure, --backend and the grid parameters (--lambda1, ...) to a command.
+void add_structure_options(CLI::App* command, StructureOptions& options);
+
 /// Builds a structure, printing what was built and how long it took on stderr.
-std::unique_ptr<Accelerator> build_reporting(const Scene& scene, const std::string& structure,
-                                             const std::string& backend);
+std::unique_ptr<Accelerator> build_reporting(const Scene& scene, const StructureOptions& options);
 
 /// Traces in chunks so a long trace shows progress on a terminal.
 void trace_with_progress(const Accelerator& accelerator, std::span<const Ray> rays,

@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", irgrid::version());
   app.require_subcommand(1, 1);
   irgrid::cli::add_info_command(app);
+  irgrid::cli::add_build_command(app);
   irgrid::cli::add_rays_command(app);
   irgrid::cli::add_trace_command(app);
   irgrid::cli::add_render_command(app);

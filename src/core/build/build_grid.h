@@ -10,6 +10,7 @@
 #include <string>
 
 #include "core/build/cells.h"
+#include "core/build/compact_map.h"
 #include "core/build/octree_levels.h"
 #include "core/build/top_grid.h"
 #include "core/build/top_level_refs.h"
@@ -100,6 +101,8 @@ void build_grid(Exec& exec, GridArrays<Exec>& grid, const BuildConfig& config,
   clock.lap("octree levels");
   assemble_grid(exec, levels, grid);
   clock.lap("cells and references");
+  compact_map(exec, grid);
+  clock.lap("voxel map");
 }
 
 }  // namespace irgrid

@@ -22,6 +22,9 @@ struct GridArrays {
   typename Exec::template Buffer<Cell> cells;
   typename Exec::template Buffer<std::uint32_t> refs;
   typename Exec::template Buffer<TriangleVertices> triangles;
+  /// Start of each octree level in `entries` while the map is in octree form (one block of 8
+  /// children per inner entry); empty once the map is compacted.
+  std::vector<std::uint32_t> level_offsets;
 };
 
 /// Concatenates per-level buffers into one of `total` elements.
@@ -61,6 +64,13 @@ template <typename Exec>
 void assemble_grid(Exec& exec, OctreeLevels<Exec>& levels, GridArrays<Exec>& grid) {
   grid.entries =
       concatenate<Exec, Entry>(exec, "concatenate entries", levels.entries, levels.num_entries);
+  grid.level_offsets.clear();
+  std::uint32_t offset = 0;
+  for (const auto& level : levels.entries) {
+    grid.level_offsets.push_back(offset);
+    offset += std::uint32_t(level.size());
+  }
+  grid.level_offsets.push_back(offset);
   grid.cells = concatenate<Exec, Cell>(exec, "concatenate cells", levels.cells, levels.num_cells);
   std::vector<typename Exec::template Buffer<std::uint32_t>> cell_parts, tri_parts;
   for (auto& part : levels.pairs) {

@@ -55,15 +55,27 @@ LevelNodes<Exec> top_level_nodes(Exec& exec, const GridInfo& info) {
 /// triangle overlaps; bit 0 selects the upper x half, bit 1 y, bit 2 z.
 IRGRID_HD inline std::uint32_t child_overlap_mask(const GridInfo& info, Voxel lo, std::int32_t half,
                                                   const TriangleVertices& t) {
-  std::uint32_t mask = 0;
+  // Cull by the triangle's padded box against the node's mid-planes first (cheap), then run the
+  // exact test on the children left.
+  const BoxF box = triangle_box(t);
+  std::uint32_t mask = 0xFF;
+  const std::uint32_t upper_half[3] = {0xAA, 0xCC, 0xF0};
+  for (int a = 0; a < 3; ++a) {
+    const float mid = voxel_to_world(info, a, lo[a] + half);
+    if (box.hi[a] + info.padding < mid) mask &= ~upper_half[a];
+    if (box.lo[a] - info.padding > mid) mask &= upper_half[a];
+  }
   for (std::uint32_t bit = 0; bit < 8; ++bit) {
+    if (!(mask >> bit & 1)) continue;
     Vec3<float> box_lo, box_hi;
     for (int a = 0; a < 3; ++a) {
       const std::int32_t v = lo[a] + ((bit >> a & 1) ? half : 0);
       box_lo[a] = voxel_to_world(info, a, v);
       box_hi[a] = voxel_to_world(info, a, v + half);
     }
-    if (triangle_overlaps_box(t.p0, t.p1, t.p2, box_lo, box_hi, info.padding)) mask |= 1u << bit;
+    if (!vertex_in_box(t, box_lo, box_hi, info.padding) &&
+        !triangle_overlaps_box(t.p0, t.p1, t.p2, box_lo, box_hi, info.padding))
+      mask &= ~(1u << bit);
   }
   return mask;
 }

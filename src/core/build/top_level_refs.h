@@ -45,7 +45,8 @@ IRGRID_HD void for_each_top_cell_overlapped(const GridInfo& info, const Vec3<flo
           cell_lo[a] = info.box_lo[a] + float(cell[a]) * top_size[a];
           cell_hi[a] = info.box_lo[a] + float(cell[a] + 1) * top_size[a];
         }
-        if (triangle_overlaps_box(t.p0, t.p1, t.p2, cell_lo, cell_hi, info.padding))
+        if (vertex_in_box(t, cell_lo, cell_hi, info.padding) ||
+            triangle_overlaps_box(t.p0, t.p1, t.p2, cell_lo, cell_hi, info.padding))
           visit((std::uint32_t(z) * std::uint32_t(info.top_dims[1]) + std::uint32_t(y)) *
                     std::uint32_t(info.top_dims[0]) +
                 std::uint32_t(x));
