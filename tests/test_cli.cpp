@@ -132,6 +132,46 @@ TEST_F(Cli, BenchValidatesAndWritesJson) {
   }
 }
 
+TEST_F(Cli, BuildPrintsStatisticsAndJson) {
+  const auto json_path = (dir / "build.json").string();
+  const auto r = run("build builtin:cornell --lambda1 0.5 --lambda2 3 --json " + json_path);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("cells"), std::string::npos);
+  const auto json = nlohmann::json::parse(read_text(json_path));
+  EXPECT_EQ(json["structure"], "irregular");
+  EXPECT_GT(json["counts"]["cells"].get<int>(), 0);
+  EXPECT_FLOAT_EQ(json["config"]["lambda1"].get<float>(), 0.5f);
+  EXPECT_GT(json["memory_breakdown_bytes"]["voxel_map"].get<int>(), 0);
+  EXPECT_EQ(run("build builtin:cornell --lambda1 -1").code, 2);
+}
+
+TEST_F(Cli, CompareRunsEveryStructureOnTheSameRays) {
+  const auto json_path = (dir / "compare.json").string();
+  const auto r =
+      run("bench builtin:cornell --compare all --kinds primary,ao --views 0 --width 16 "
+          "--height 16 --repeat 1 --validate 100 --json " +
+          json_path);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("comparison"), std::string::npos);
+  const auto json = nlohmann::json::parse(read_text(json_path));
+  ASSERT_GE(json["compare"].size(), 3u);  // irregular, two-level, uniform (+ embree)
+  for (const auto& result : json["compare"]) {
+    ASSERT_EQ(result["runs"].size(), 2u);
+    EXPECT_EQ(result["runs"][0]["rays"], json["compare"][0]["runs"][0]["rays"]);
+    EXPECT_EQ(result["runs"][1]["rays"], json["compare"][0]["runs"][1]["rays"]);
+    EXPECT_EQ(result["runs"][0]["mismatches"], 0);
+  }
+}
+
+TEST_F(Cli, HeatmapRendersWorkPerPixel) {
+  const auto png = (dir / "heat.png").string();
+  const auto r = run("render builtin:cornell --mode heatmap -w 32 -h 24 -o " + png);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("work per ray"), std::string::npos);
+  EXPECT_EQ(run("render builtin:cornell --mode heatmap --structure brute -w 8 -h 8 -o " + png).code,
+            2);
+}
+
 TEST_F(Cli, RenderWritesAPng) {
   const auto png = (dir / "cornell.png").string();
   const auto r = run("render builtin:cornell -w 64 -h 48 -o " + png);

@@ -42,6 +42,10 @@ struct Contender {
 
 std::vector<Contender> parse_contenders(const BenchOptions& o) {
   std::vector<std::string> names = split_list(o.compare);
+  if (names.size() == 1 && names.front() == "all") {  // every structure built in but brute force
+    names = available_structures();
+    names.erase(std::find(names.begin(), names.end(), "brute"));
+  }
   if (names.empty())
     names.push_back(o.structure.structure.empty() ? default_structure() : o.structure.structure);
   std::vector<Contender> contenders;
@@ -191,7 +195,8 @@ void add_bench_command(CLI::App& app) {
   add_structure_options(cmd, o->structure);
   cmd->add_option("--compare", o->compare,
                   "Structures to run on the same rays, e.g. irregular,embree,two-level,uniform "
-                  "(NAME@BACKEND picks a backend); ratios are to the first");
+                  "(NAME@BACKEND picks a backend; 'all': every structure but brute); ratios are to "
+                  "the first");
   cmd->add_option("--kinds", o->kinds, "Ray kinds, comma-separated")->capture_default_str();
   cmd->add_option("--views", o->views, "View indices, comma-separated (default: all)");
   cmd->add_option("--views-file", o->views_file, "views.json to take the cameras from");
