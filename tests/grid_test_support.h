@@ -10,7 +10,17 @@
 
 namespace irgrid::testing {
 
-inline GridArrays<CpuExecutor> build_test_grid(const Scene& scene, const BuildConfig& config = {}) {
+/// The initial grid of the paper's §3.1: no merging, no expansion (tests of those phases start
+/// from it; tests of the whole build pass BuildConfig{}).
+inline BuildConfig initial_grid_config() {
+  BuildConfig config;
+  config.alpha = 0;
+  config.expansion_passes = 0;
+  return config;
+}
+
+inline GridArrays<CpuExecutor> build_test_grid(const Scene& scene,
+                                               const BuildConfig& config = initial_grid_config()) {
   CpuExecutor exec;
   GridArrays<CpuExecutor> grid;
   for (const auto& tri : scene.triangles)

@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "cpu/memory_meter.h"
 #include "cpu/radix_sort.h"
 
 namespace irgrid {
@@ -31,9 +32,10 @@ class CpuExecutor {
  public:
   /// Memory the primitives work on; host vectors here, device buffers on the CUDA executor.
   /// Algorithm code reaches elements only through the executor's calls or, inside a
-  /// for_each body, through raw pointers taken with buffer.data() beforehand.
+  /// for_each body, through raw pointers taken with buffer.data() beforehand. Their bytes are
+  /// counted by MemoryMeter, so a build can report its peak.
   template <typename T>
-  using Buffer = std::vector<T>;
+  using Buffer = std::vector<T, MeteredAllocator<T>>;
 
   /// A buffer of n elements. Contents are unspecified by the contract (value-initialised
   /// here), so callers must write before they read.

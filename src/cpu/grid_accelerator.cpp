@@ -31,6 +31,8 @@ class GridCpu final : public Accelerator {
   GridCpu(const Scene& scene, const BuildConfig& config) : name_(shape_name(config.shape)) {
     const auto start = std::chrono::steady_clock::now();
     CpuExecutor exec;
+    MemoryMeter::reset_peak();
+    const std::int64_t before = MemoryMeter::current();
     grid_.triangles.resize(scene.triangles.size());
     tbb::parallel_for(std::size_t(0), scene.triangles.size(), [&](std::size_t i) {
       const auto& tri = scene.triangles[i];
@@ -42,6 +44,7 @@ class GridCpu final : public Accelerator {
     info_.build_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     record_statistics();
+    info_.counts["peak_build_bytes"] = std::uint64_t(MemoryMeter::peak() - before);
   }
 
   std::string structure() const override { return name_; }

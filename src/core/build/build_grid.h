@@ -11,6 +11,8 @@
 
 #include "core/build/cells.h"
 #include "core/build/compact_map.h"
+#include "core/build/expand.h"
+#include "core/build/merge.h"
 #include "core/build/octree_levels.h"
 #include "core/build/top_grid.h"
 #include "core/build/top_level_refs.h"
@@ -101,8 +103,15 @@ void build_grid(Exec& exec, GridArrays<Exec>& grid, const BuildConfig& config,
   clock.lap("octree levels");
   assemble_grid(exec, levels, grid);
   clock.lap("cells and references");
+  // Merging and expansion (paper §3.2-3.3) only for the irregular grid: the uniform and
+  // two-level grids are the baselines without them.
+  const bool irregular = config.shape == BuildConfig::Shape::irregular;
+  if (irregular) merge_cells(exec, grid, config.alpha, config.cost_ratio);
+  clock.lap("merge");
   compact_map(exec, grid);
   clock.lap("voxel map");
+  if (irregular) expand_cells(exec, grid, config.expansion_passes, config.partial_expansion);
+  clock.lap("expansion");
 }
 
 }  // namespace irgrid

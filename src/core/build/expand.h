@@ -1,0 +1,76 @@
+// core/build/expand.h: exit-box expansion, the last phase of the build.
+//
+// Pérard-Gayot, Kalojanov, Slusallek, "GPU Ray Tracing using Irregular Grids", EG 2017, §3.3:
+// entry and exit boundaries are decoupled. The voxel map keeps each cell's own box (where rays
+// enter it); the box stored in the cell (where rays leave it) grows over neighbours whose
+// triangles it already lists, so traversal skips them and stops earlier. Each pass grows along
+// x, then y, then z; along one axis every cell tries both directions, reading one snapshot of
+// the boxes and writing a second buffer, so the result does not depend on scheduling. Why the
+// growth keeps traversal exact, and the partial mode, are explained in expand_face.h.
+#pragma once
+
+#include <cstdint>
+#include <utility>
+
+#include "core/build/cells.h"
+#include "core/build/expand_face.h"
+
+namespace irgrid {
+
+namespace expand_detail {
+
+/// Grows every cell along `axis` (both directions) from the boxes in grid.cells into `out`.
+/// `can_grow` holds one bit per axis and cell; a cell whose bit is clear is copied unchanged, and
+/// the bit is cleared when neither direction grew by the full depth of its neighbours (blocked
+/// by the grid boundary or by a list), since such a cell is unlikely to grow along that axis in
+/// a later pass. The bits only save work: clearing one never makes the grid wrong.
+template <typename Exec>
+void expand_axis(Exec& exec, const GridArrays<Exec>& grid, Cell* out, std::uint8_t* can_grow,
+                 int axis, bool partial) {
+  const ExpandView view{grid.info,        grid.entries.data(),   grid.cells.data(),
+                        grid.refs.data(), grid.triangles.data(), partial};
+  const auto bit = std::uint8_t(1u << axis);
+  exec.for_each("expand cells", grid.info.num_cells, [=] IRGRID_HD(std::size_t i) {
+    Cell cell = view.cells[i];
+    if (can_grow[i] & bit) {
+      // Both directions read the snapshot box; the two slabs are disjoint and each is safe
+      // on its own, so their union is too.
+      const FaceGrowth up = face_growth(view, cell, axis, +1);
+      const FaceGrowth down = face_growth(view, cell, axis, -1);
+      cell.hi[axis] += up.voxels;
+      cell.lo[axis] -= down.voxels;
+      if (!up.may_grow_further && !down.may_grow_further)
+        can_grow[i] = std::uint8_t(can_grow[i] & ~bit);
+    }
+    out[i] = cell;
+  });
+}
+
+}  // namespace expand_detail
+
+/// Grows the exit boxes of all cells of `grid` in `passes` passes (x, y, z each; 0 or less:
+/// nothing), in place of grid.cells. With `partial`, a cell may also grow part-way into
+/// neighbours that hold triangles it does not list (not in the paper).
+///
+/// Requires a valid grid: cells tile the virtual grid (their boxes may already be expanded exit
+/// boxes), every list sorted ascending and unique, the voxel map answering each voxel's owner,
+/// and every triangle that overlaps a cell's box grown by info.padding in the cell's list.
+/// Guarantees the same of the result with the exit boxes: each contains the cell's previous box
+/// and stays inside the grid; the voxel map, the references and the ranges are unchanged.
+/// Deterministic: the result depends on the inputs only, not on the number of threads.
+template <typename Exec>
+void expand_cells(Exec& exec, GridArrays<Exec>& grid, int passes, bool partial) {
+  const std::uint32_t count = grid.info.num_cells;
+  if (passes <= 0 || count == 0) return;
+  auto back = exec.template allocate<Cell>(count);
+  auto can_grow = exec.template allocate<std::uint8_t>(count);
+  std::uint8_t* d_can_grow = can_grow.data();
+  exec.for_each("expand flags", count, [=] IRGRID_HD(std::size_t i) { d_can_grow[i] = 7; });
+  for (int pass = 0; pass < passes; ++pass)
+    for (int axis = 0; axis < 3; ++axis) {
+      expand_detail::expand_axis(exec, grid, back.data(), d_can_grow, axis, partial);
+      std::swap(grid.cells, back);  // the boxes just written are the next step's snapshot
+    }
+}
+
+}  // namespace irgrid

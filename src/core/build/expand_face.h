@@ -1,0 +1,165 @@
+// core/build/expand_face.h: how far one cell's exit box may grow through one of its faces.
+//
+// Pérard-Gayot, Kalojanov, Slusallek, "GPU Ray Tracing using Irregular Grids", EG 2017, §3.3
+// (expansion), and ../shared/design/algorithm.md §5. The invariant that keeps traversal exact:
+//     every triangle that overlaps a cell's exit box grown by GridInfo::padding is in its list
+// (the insertion test establishes it with that padding; traversal relies on the padding to absorb
+// the rounding of its float positions). Growth through a face adds a slab S = face x [h, h + d]
+// (for the upper face; the lower one is symmetric). The face is walked in tiles, each tile lying
+// inside the current exit box of the neighbour N that owns the voxel just outside it, and d never
+// exceeds the depth of any such box, so S is covered by those boxes. A triangle overlapping S
+// grown by the padding therefore overlaps some N's exit box grown by the padding, so it is in N's
+// list by the invariant of N, and it is in C's list too unless it is one of N's *extra* triangles
+// (in N's list, not in C's):
+//   * subset mode (the paper): any extra triangle forbids growth through the whole face;
+//   * partial mode (not in the paper; the talk's slides report +10-20% traversal speed): an extra
+//     triangle only caps d so that S stays more than the padding away from the triangle's
+//     bounding box, along the axis of growth, or it is ignored when its box is more than the
+//     padding away from the face's cross-section. A triangle lies inside its box, so it then
+//     cannot come within the padding of S either.
+// Comparisons use twice the padding: the float rounding of "coordinate ± 2 x padding" is far below
+// one padding (about 64 ulps of the scene's largest coordinate), so "apart by more than the
+// padding" holds exactly whenever the float comparison claims the doubled margin.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+
+#include "core/grid/layout.h"
+#include "core/triangle.h"
+
+namespace irgrid {
+namespace expand_detail {
+
+/// What the growth of all cells along one axis reads: the grid and ONE snapshot of the exit
+/// boxes, so that the result does not depend on the order in which cells are processed.
+struct ExpandView {
+  GridInfo info;
+  const Entry* entries;               ///< voxel map: entry-box ownership, never modified
+  const Cell* cells;                  ///< exit boxes before this axis step
+  const std::uint32_t* refs;          ///< per-cell lists, sorted ascending and unique
+  const TriangleVertices* triangles;  ///< for the boxes of extra triangles (partial mode)
+  bool partial;                       ///< partial expansion on
+};
+
+/// Growth through one face.
+struct FaceGrowth {
+  std::int32_t voxels;    ///< how far the face moves outwards, >= 0
+  bool may_grow_further;  ///< limited only by the depth of the neighbours' boxes
+};
+
+/// First index in [first, last) of the sorted refs whose value is >= id (last if none).
+IRGRID_HD inline std::uint32_t lower_bound_ref(const std::uint32_t* refs, std::uint32_t first,
+                                               std::uint32_t last, std::uint32_t id) {
+  while (first < last) {
+    const std::uint32_t mid = first + (last - first) / 2;
+    if (refs[mid] < id)
+      first = mid + 1;
+    else
+      last = mid;
+  }
+  return first;
+}
+
+/// The largest growth d in [0, limit] of cell c's face on `axis` (direction +1: the upper face,
+/// -1: the lower one) that keeps the grown slab more than the padding away from `box` (the box
+/// of a triangle missing from c's list). Conservative: the float floor may cost a voxel, never
+/// admit one too many, because every candidate plane is checked with the doubled margin.
+IRGRID_HD inline std::int32_t growth_before_box(const GridInfo& info, const Cell& c, int axis,
+                                                int direction, const BoxF& box,
+                                                std::int32_t limit) {
+  const float margin = 2.f * info.padding;
+  for (int k = 1; k < 3; ++k) {
+    const int b = (axis + k) % 3;
+    // Apart from the face's cross-section on a face axis: the triangle cannot reach the slab.
+    // (Written so that a NaN box falls through to the cap below, which then answers 0.)
+    if (box.lo[b] - margin > voxel_to_world(info, b, c.hi[b]) ||
+        box.hi[b] + margin < voxel_to_world(info, b, c.lo[b]))
+      return limit;
+  }
+  if (direction > 0) {
+    // The far plane P = hi + d must stay below box.lo - padding: start from the voxel holding
+    // that coordinate and step back while the check fails.
+    const std::int32_t face = c.hi[axis];
+    const float first =
+        floorf((box.lo[axis] - margin - info.box_lo[axis]) * info.inv_voxel_size[axis]);
+    std::int32_t plane =
+        std::int32_t(fminf(fmaxf(first, float(face)), float(face + limit)));  // NaN -> face
+    while (plane > face && !(voxel_to_world(info, axis, plane) + margin < box.lo[axis]))
+      --plane;
+    return plane - face;
+  }
+  // The far plane P = lo - d must stay above box.hi + padding.
+  const std::int32_t face = c.lo[axis];
+  const float first =
+      floorf((box.hi[axis] + margin - info.box_lo[axis]) * info.inv_voxel_size[axis]) + 1.f;
+  std::int32_t plane =
+      std::int32_t(fmaxf(fminf(first, float(face)), float(face - limit)));  // NaN -> face
+  while (plane < face && !(voxel_to_world(info, axis, plane) - margin > box.hi[axis]))
+    ++plane;
+  return face - plane;
+}
+
+/// The largest growth in [0, limit] that neighbour n's list allows cell c: limit when n's list
+/// is a subset of c's; otherwise 0 in subset mode, and in partial mode the cap set by the
+/// boxes of n's extra triangles. Both lists are sorted, so one binary search per reference of n,
+/// each starting after the previous match, finds the extras.
+IRGRID_HD inline std::int32_t growth_allowed_by_list(const ExpandView& view, const Cell& c,
+                                                     const Cell& n, int axis, int direction,
+                                                     std::int32_t limit) {
+  // A longer list cannot be a subset; partial mode still needs the extras' boxes.
+  if (!view.partial && n.end - n.begin > c.end - c.begin) return 0;
+  std::uint32_t from = c.begin;
+  for (std::uint32_t r = n.begin; r < n.end && limit > 0; ++r) {
+    const std::uint32_t id = view.refs[r];
+    from = lower_bound_ref(view.refs, from, c.end, id);
+    if (from < c.end && view.refs[from] == id) {
+      ++from;
+      continue;
+    }
+    if (!view.partial) return 0;
+    limit =
+        growth_before_box(view.info, c, axis, direction, triangle_box(view.triangles[id]), limit);
+  }
+  return limit;
+}
+
+/// How far cell c (its snapshot exit box) may grow through its face on `axis` in `direction`
+/// (+1 or -1). Walks the face in rows of tiles: each tile starts at a voxel just outside the
+/// face, whose owner N is found in the voxel map, and spans N's current exit box (clamped to the
+/// face) along the row; a row is as tall as its shortest tile. Every tile thus lies inside one
+/// neighbour's exit box, which the argument at the top of this file needs.
+IRGRID_HD inline FaceGrowth face_growth(const ExpandView& view, const Cell& c, int axis,
+                                        int direction) {
+  const std::int32_t outside = direction > 0 ? c.hi[axis] : c.lo[axis] - 1;
+  if (outside < 0 || outside >= view.info.virtual_dims[axis]) return {0, false};
+  const int row_axis = (axis + 1) % 3, column_axis = (axis + 2) % 3;
+  std::int32_t depth = kMaxVirtualResolution;  // min over neighbours of their box's depth
+  std::int32_t allowed = depth;                // min over neighbours of what their lists allow
+  Voxel at{};
+  at[axis] = outside;
+  for (std::int32_t j = c.lo[column_axis]; j < c.hi[column_axis] && allowed > 0;) {
+    std::int32_t row_end = c.hi[column_axis];
+    for (std::int32_t i = c.lo[row_axis]; i < c.hi[row_axis] && allowed > 0;) {
+      at[row_axis] = i;
+      at[column_axis] = j;
+      const Cell n = view.cells[lookup_cell(view.info, view.entries, at)];
+      // An owner that misses its own voxel means an inconsistent map: give up, never spin.
+      if (n.hi[row_axis] <= i || n.hi[column_axis] <= j) return {0, false};
+      const std::int32_t n_depth =
+          direction > 0 ? n.hi[axis] - c.hi[axis] : c.lo[axis] - n.lo[axis];
+      depth = n_depth < depth ? n_depth : depth;
+      const std::int32_t limit = allowed < depth ? allowed : depth;
+      allowed = growth_allowed_by_list(view, c, n, axis, direction, limit);
+      // n's exit box holds its entry box, which holds the voxel at (i, j): both advance.
+      i = n.hi[row_axis] < c.hi[row_axis] ? n.hi[row_axis] : c.hi[row_axis];
+      row_end = n.hi[column_axis] < row_end ? n.hi[column_axis] : row_end;
+    }
+    j = row_end;
+  }
+  const std::int32_t grown = allowed < depth ? allowed : depth;
+  return {grown > 0 ? grown : 0, grown > 0 && grown == depth};
+}
+
+}  // namespace expand_detail
+}  // namespace irgrid

@@ -1,0 +1,369 @@
+// Exit-box expansion (Pérard-Gayot et al. 2017, §3.3; partial expansion, design notes §5): every
+// triangle touching a cell's exit box stays in its list, exit boxes hold the entry boxes and stay
+// in the grid, cells do grow, traversal stays exact, the result does not depend on the thread
+// count, and zero passes change nothing. Also reports the traversal work before and after.
+#include <gtest/gtest.h>
+
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <limits>
+#include <map>
+
+#include "core/build/expand.h"
+#include "core/grid/traverse.h"
+#include "core/random.h"
+#include "core/triangle_box.h"
+#include "grid_test_support.h"
+#include "irgrid/camera.h"
+#include "irgrid/rays.h"
+#include "irgrid/validate.h"
+
+namespace irgrid {
+namespace {
+
+using Grid = GridArrays<CpuExecutor>;
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+const std::vector<std::string> kScenes = {"builtin:cornell", "builtin:teapot-stadium:4000",
+                                          "builtin:soup:3000", "builtin:hairball:5000",
+                                          "builtin:sphere:2000"};
+
+/// The expansion settings under test: passes and partial expansion.
+struct Setting {
+  int passes;
+  bool partial;
+  bool operator<(const Setting& o) const {
+    return passes != o.passes ? passes < o.passes : partial < o.partial;
+  }
+  std::string name() const {
+    return std::to_string(passes) + (passes == 1 ? " pass" : " passes") +
+           (partial ? ", partial" : ", subset only");
+  }
+};
+const std::vector<Setting> kSettings = {{1, false}, {1, true}, {3, false}, {3, true}};
+
+Grid expanded_copy(const Grid& grid, Setting setting) {
+  CpuExecutor exec;
+  Grid copy = grid;
+  expand_cells(exec, copy, setting.passes, setting.partial);
+  return copy;
+}
+
+/// A scene's grid before expansion and after each setting, built once for all tests.
+struct ExpandCase {
+  Scene scene;
+  Grid before;
+  std::map<Setting, Grid> after;
+  std::map<Setting, double> expand_ms;
+};
+
+const ExpandCase& expand_case(const std::string& spec) {
+  static std::map<std::string, ExpandCase> cache;
+  auto found = cache.find(spec);
+  if (found != cache.end()) return found->second;
+  ExpandCase& c = cache[spec];
+  c.scene = load_scene(spec);
+  BuildConfig config;
+  config.expansion_passes = 0;  // in case the builder expands by itself: start unexpanded
+  c.before = testing::build_test_grid(c.scene, config);
+  for (const Setting& setting : kSettings) {
+    const auto start = std::chrono::steady_clock::now();
+    c.after[setting] = expanded_copy(c.before, setting);
+    c.expand_ms[setting] =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  }
+  return c;
+}
+
+bool same_cells(const Grid& a, const Grid& b) {
+  return a.cells.size() == b.cells.size() &&
+         std::memcmp(a.cells.data(), b.cells.data(), a.cells.size() * sizeof(Cell)) == 0;
+}
+
+std::uint64_t cell_volume(const Cell& c) {
+  return std::uint64_t(c.hi[0] - c.lo[0]) * std::uint64_t(c.hi[1] - c.lo[1]) *
+         std::uint64_t(c.hi[2] - c.lo[2]);
+}
+
+GridView view_of(const Grid& grid) {
+  return {grid.info, grid.entries.data(), grid.cells.data(), grid.refs.data(),
+          grid.triangles.data()};
+}
+
+/// Checks, on every cell of small grids and an even sample of about 1500 cells of larger ones,
+/// that every triangle overlapping the cell's exit box grown by `padding` is in its list.
+/// Returns the number of overlapping pairs seen.
+std::size_t check_lists_cover_exit_boxes(const Grid& grid, float padding, const std::string& what) {
+  const GridInfo& info = grid.info;
+  std::size_t overlaps = 0;
+  const std::size_t stride = std::max<std::size_t>(1, grid.cells.size() / 1500);
+  for (std::size_t id = 0; id < grid.cells.size(); id += stride) {
+    const Cell& c = grid.cells[id];
+    Vec3<float> lo, hi;
+    for (int a = 0; a < 3; ++a)
+      lo[a] = voxel_to_world(info, a, c.lo[a]), hi[a] = voxel_to_world(info, a, c.hi[a]);
+    const auto* list_begin = grid.refs.data() + c.begin;
+    const auto* list_end = grid.refs.data() + c.end;
+    for (std::uint32_t t = 0; t < info.num_triangles; ++t) {
+      const auto& tri = grid.triangles[t];
+      if (!triangle_overlaps_box(tri.p0, tri.p1, tri.p2, lo, hi, padding)) continue;
+      ++overlaps;
+      EXPECT_TRUE(std::binary_search(list_begin, list_end, t))
+          << what << ": triangle " << t << " touches the exit box of cell " << id
+          << " but is not in its list";
+      if (!std::binary_search(list_begin, list_end, t)) return overlaps;
+    }
+  }
+  return overlaps;
+}
+
+class GridExpand : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(GridExpand, EveryTriangleTouchingAnExitBoxIsInItsList) {
+  const ExpandCase& c = expand_case(GetParam());
+  for (const Setting& setting : kSettings) {
+    const Grid& grid = c.after.at(setting);
+    EXPECT_GT(check_lists_cover_exit_boxes(grid, 0.f, setting.name()), 0u);
+    // Stronger: expansion keeps the insertion test's padding (half of it here, which leaves room
+    // for the rounding of the top-level boxes), which traversal relies on.
+    check_lists_cover_exit_boxes(grid, 0.5f * grid.info.padding, setting.name() + ", padded");
+  }
+}
+
+TEST_P(GridExpand, ExitBoxesHoldEntryBoxesAndStayInTheGrid) {
+  const ExpandCase& c = expand_case(GetParam());
+  const GridInfo& info = c.before.info;
+  for (const Setting& setting : kSettings) {
+    const Grid& grid = c.after.at(setting);
+    ASSERT_EQ(std::memcmp(&grid.info, &info, sizeof(GridInfo)), 0);
+    ASSERT_EQ(grid.entries.size(), c.before.entries.size());
+    ASSERT_EQ(std::memcmp(grid.entries.data(), c.before.entries.data(),
+                          grid.entries.size() * sizeof(Entry)),
+              0)
+        << "the voxel map must keep the entry boxes";
+    ASSERT_EQ(grid.refs, c.before.refs);
+    ASSERT_EQ(grid.cells.size(), c.before.cells.size());
+    for (std::uint32_t id = 0; id < info.num_cells; ++id) {
+      const Cell &exit = grid.cells[id], &entry = c.before.cells[id];
+      ASSERT_EQ(exit.begin, entry.begin);
+      ASSERT_EQ(exit.end, entry.end);
+      for (int a = 0; a < 3; ++a) {
+        ASSERT_LE(0, exit.lo[a]) << setting.name();
+        ASSERT_LE(exit.lo[a], entry.lo[a]) << setting.name();
+        ASSERT_LE(entry.hi[a], exit.hi[a]) << setting.name();
+        ASSERT_LE(exit.hi[a], info.virtual_dims[a]) << setting.name();
+      }
+      ASSERT_EQ(lookup_cell(info, grid.entries.data(), {entry.lo[0], entry.lo[1], entry.lo[2]}),
+                id);
+      ASSERT_EQ(lookup_cell(info, grid.entries.data(),
+                            {entry.hi[0] - 1, entry.hi[1] - 1, entry.hi[2] - 1}),
+                id);
+    }
+  }
+}
+
+TEST_P(GridExpand, CellsGrow) {
+  const ExpandCase& c = expand_case(GetParam());
+  for (const Setting& setting : kSettings) {
+    const Grid& grid = c.after.at(setting);
+    std::size_t grown = 0;
+    std::uint64_t volume_before = 0, volume_after = 0;
+    for (std::size_t id = 0; id < grid.cells.size(); ++id) {
+      grown += cell_volume(grid.cells[id]) > cell_volume(c.before.cells[id]);
+      volume_before += cell_volume(c.before.cells[id]);
+      volume_after += cell_volume(grid.cells[id]);
+    }
+    EXPECT_GT(grown, 0u) << setting.name();
+    std::printf("%-28s %-22s %7zu cells, %6zu grew, exit/entry volume %.2f, %.1f ms\n",
+                GetParam().c_str(), setting.name().c_str(), grid.cells.size(), grown,
+                double(volume_after) / double(volume_before), c.expand_ms.at(setting));
+  }
+}
+
+/// Random rays, rays starting on entry and exit faces (along axes and in random directions,
+/// some with tmin > 0 or a short tmax, and the same lines from far outside), and axis-parallel
+/// rays through vertices and edge midpoints.
+std::vector<Ray> test_rays(const Scene& scene, const Grid& before, const Grid& after) {
+  const GridInfo& info = before.info;
+  const float diagonal = scene.bounds().diagonal();
+  std::vector<Ray> rays = random_rays(scene.bounds(), 2000, 11);
+  Pcg32 rng;
+  rng.seed(23);
+  for (int k = 0; k < 2000; ++k) {
+    const std::size_t id = rng.next_u32() % after.cells.size();
+    const Cell& c = (k & 1) ? after.cells[id] : before.cells[id];
+    const int axis = int(rng.next_u32() % 3);
+    Ray ray{};
+    for (int b = 0; b < 3; ++b) {
+      const float lo = voxel_to_world(info, b, c.lo[b]), hi = voxel_to_world(info, b, c.hi[b]);
+      ray.org[b] = lo + rng.next_float() * (hi - lo);
+    }
+    ray.org[axis] = voxel_to_world(info, axis, (rng.next_u32() & 1) ? c.hi[axis] : c.lo[axis]);
+    if (k % 3 == 0) {
+      ray.dir[int(rng.next_u32() % 3)] = (rng.next_u32() & 1) ? 1.f : -1.f;
+    } else {
+      for (float& d : ray.dir)
+        d = rng.next_float() - 0.5f;
+    }
+    ray.tmin = (k % 5 == 0) ? 0.01f * diagonal : 0.f;
+    ray.tmax = (k % 7 == 0) ? 0.2f * diagonal : kInf;
+    rays.push_back(ray);
+    Ray from_outside = ray;
+    for (int b = 0; b < 3; ++b)
+      from_outside.org[b] -= 10 * diagonal * ray.dir[b];
+    from_outside.tmin = 0, from_outside.tmax = kInf;
+    rays.push_back(from_outside);
+  }
+  for (std::size_t t = 0; t < scene.triangles.size() && t < 300; ++t) {
+    const auto& v = scene.vertices[scene.triangles[t][0]];
+    const auto& w = scene.vertices[scene.triangles[t][1]];
+    for (int a = 0; a < 3; ++a) {
+      Ray ray{{v[0], v[1], v[2]}, 0, {0, 0, 0}, kInf};
+      ray.org[a] = scene.bounds().lo[a] - 1;
+      ray.dir[a] = 1;
+      rays.push_back(ray);
+      Ray mid{
+          {0.5f * (v[0] + w[0]), 0.5f * (v[1] + w[1]), 0.5f * (v[2] + w[2])}, 0, {0, 0, 0}, kInf};
+      mid.org[a] = scene.bounds().hi[a] + 1;
+      mid.dir[a] = -1;
+      rays.push_back(mid);
+    }
+  }
+  return rays;
+}
+
+template <Query kQuery>
+std::vector<Hit> trace_grid(const Grid& grid, const std::vector<Ray>& rays,
+                            TraversalCounters* counters = nullptr) {
+  const GridView view = view_of(grid);
+  std::vector<Hit> hits(rays.size());
+  for (std::size_t i = 0; i < rays.size(); ++i)
+    hits[i] = traverse_grid<kQuery>(view, rays[i], counters);
+  return hits;
+}
+
+TEST_P(GridExpand, TraversalStaysExact) {
+  const ExpandCase& c = expand_case(GetParam());
+  const ReferenceTracer reference(c.scene);
+  for (const Setting& setting : kSettings) {
+    const Grid& grid = c.after.at(setting);
+    const auto rays = test_rays(c.scene, c.before, grid);
+    for (Query query : {Query::closest, Query::any}) {
+      const auto hits = query == Query::closest ? trace_grid<Query::closest>(grid, rays)
+                                                : trace_grid<Query::any>(grid, rays);
+      const auto result = validate_hits(reference, c.scene, rays, hits, query, rays.size());
+      EXPECT_EQ(result.checked, rays.size());
+      EXPECT_EQ(result.mismatches, 0u)
+          << setting.name() << (query == Query::any ? " any" : " closest") << ": "
+          << (result.examples.empty() ? "" : result.examples[0]);
+    }
+  }
+}
+
+TEST_P(GridExpand, SameCellsWhateverTheThreadCount) {
+  const ExpandCase& c = expand_case(GetParam());
+  for (const Setting& setting : {Setting{3, false}, Setting{3, true}}) {
+    auto expand_with = [&](int threads) {
+      tbb::global_control control(tbb::global_control::max_allowed_parallelism, threads);
+      return expanded_copy(c.before, setting);
+    };
+    const Grid one = expand_with(1), two = expand_with(2);
+    EXPECT_TRUE(same_cells(one, two)) << setting.name();
+    EXPECT_TRUE(same_cells(one, c.after.at(setting))) << setting.name();
+  }
+}
+
+TEST_P(GridExpand, ZeroPassesChangeNothing) {
+  const ExpandCase& c = expand_case(GetParam());
+  for (int passes : {0, -1})
+    for (bool partial : {false, true})
+      EXPECT_TRUE(same_cells(expanded_copy(c.before, {passes, partial}), c.before));
+}
+
+INSTANTIATE_TEST_SUITE_P(Builtin, GridExpand, ::testing::ValuesIn(kScenes), [](const auto& info) {
+  std::string name = info.param.substr(8);
+  for (char& ch : name)
+    if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+  return name;
+});
+
+/// A voxel grid of 16^3 unit voxels from the origin, for hand-checked caps.
+GridInfo unit_grid(float padding) {
+  GridInfo info{};
+  info.box_hi = {16, 16, 16};
+  info.voxel_size = {1, 1, 1};
+  info.inv_voxel_size = {1, 1, 1};
+  for (int a = 0; a < 3; ++a)
+    info.top_dims[a] = 16, info.virtual_dims[a] = 16;
+  info.padding = padding;
+  return info;
+}
+
+TEST(GridExpandFace, PartialGrowthStopsBeforeTheFirstExtraTriangle) {
+  using expand_detail::growth_before_box;
+  const GridInfo info = unit_grid(1e-3f);
+  const Cell c{{2, 2, 2}, 0, {4, 4, 4}, 0};
+  // Upper x face at 4: a box starting at x = 7.5 lets the face move to plane 7.
+  EXPECT_EQ(growth_before_box(info, c, 0, +1, {{7.5f, 3, 3}, {9, 3.5f, 3.5f}}, 10), 3);
+  // A box starting exactly on plane 7 (or within twice the padding of it) stops the face at 6.
+  EXPECT_EQ(growth_before_box(info, c, 0, +1, {{7.f, 3, 3}, {9, 3.5f, 3.5f}}, 10), 2);
+  EXPECT_EQ(growth_before_box(info, c, 0, +1, {{7.0015f, 3, 3}, {9, 3.5f, 3.5f}}, 10), 2);
+  // The neighbours' depth still bounds the growth.
+  EXPECT_EQ(growth_before_box(info, c, 0, +1, {{7.5f, 3, 3}, {9, 3.5f, 3.5f}}, 1), 1);
+  // A box reaching into the face's plane allows nothing.
+  EXPECT_EQ(growth_before_box(info, c, 0, +1, {{3.9f, 3, 3}, {9, 3.5f, 3.5f}}, 10), 0);
+  // Lower x face at 2: a box ending at x = 0.5 lets it move to plane 1.
+  EXPECT_EQ(growth_before_box(info, c, 0, -1, {{0, 3, 3}, {0.5f, 3.5f, 3.5f}}, 10), 1);
+  EXPECT_EQ(growth_before_box(info, c, 0, -1, {{0, 3, 3}, {1.f, 3.5f, 3.5f}}, 10), 0);
+  // Boxes beside the face's cross-section do not limit; touching it (with the padding) does.
+  EXPECT_EQ(growth_before_box(info, c, 0, +1, {{5, 5, 3}, {9, 6, 3.5f}}, 10), 10);
+  EXPECT_EQ(growth_before_box(info, c, 0, +1, {{5.5f, 4, 3}, {9, 6, 3.5f}}, 10), 1);
+  EXPECT_EQ(growth_before_box(info, c, 0, +1, {{5.5f, 3, 4.0015f}, {9, 3, 6}}, 10), 1);
+  EXPECT_EQ(growth_before_box(info, c, 0, +1, {{5.5f, 3, 4.0025f}, {9, 3, 6}}, 10), 10);
+  EXPECT_EQ(growth_before_box(info, c, 0, +1, {{5.5f, 0, 0}, {9, 1.9975f, 3}}, 10), 10);
+  // A NaN box allows nothing.
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_EQ(growth_before_box(info, c, 0, +1, {{nan, nan, nan}, {nan, nan, nan}}, 10), 0);
+  EXPECT_EQ(growth_before_box(info, c, 0, -1, {{nan, nan, nan}, {nan, nan, nan}}, 10), 0);
+}
+
+/// Mean cells visited and triangles tested per ray.
+struct Work {
+  double cells = 0, triangles = 0;
+};
+
+Work mean_work(const Grid& grid, const std::vector<Ray>& rays) {
+  TraversalCounters counters;
+  trace_grid<Query::closest>(grid, rays, &counters);
+  return {double(counters.cells) / double(rays.size()),
+          double(counters.triangles) / double(rays.size())};
+}
+
+TEST(GridExpandReport, TraversalWorkBeforeAndAfter) {
+  for (const char* spec : {"builtin:teapot-stadium:4000", "builtin:cornell"}) {
+    const ExpandCase& c = expand_case(spec);
+    const auto camera = scene_views(c.scene).at(0);
+    const std::vector<std::pair<const char*, std::vector<Ray>>> ray_sets = {
+        {"primary", primary_rays(camera, 128, 128)},
+        {"random", random_rays(c.scene.bounds(), 50000, 3)}};
+    for (const auto& [kind, rays] : ray_sets) {
+      const Work before = mean_work(c.before, rays);
+      std::printf("%-28s %-8s %-22s cells/ray %7.2f  triangles/ray %7.2f\n", spec, kind,
+                  "unexpanded", before.cells, before.triangles);
+      for (const Setting& setting : kSettings) {
+        const Work after = mean_work(c.after.at(setting), rays);
+        std::printf("%-28s %-8s %-22s cells/ray %7.2f  triangles/ray %7.2f\n", spec, kind,
+                    setting.name().c_str(), after.cells, after.triangles);
+        EXPECT_LE(after.cells, before.cells) << spec << " " << kind << " " << setting.name();
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace irgrid

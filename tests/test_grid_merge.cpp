@@ -1,0 +1,371 @@
+// Cell merging (Pérard-Gayot et al. 2017, §3.2): merged cells still tile the grid, the voxel map
+// finds them, every list is the exact sorted union of the merged cells' lists, the SAH cost does
+// not grow, the result does not depend on the thread count, and traversal stays exact.
+#include <gtest/gtest.h>
+
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <limits>
+#include <map>
+
+#include "core/build/merge.h"
+#include "core/grid/traverse.h"
+#include "core/random.h"
+#include "core/triangle_box.h"
+#include "grid_test_support.h"
+#include "irgrid/rays.h"
+#include "irgrid/validate.h"
+
+namespace irgrid {
+namespace {
+
+using Grid = GridArrays<CpuExecutor>;
+
+const std::vector<std::string> kScenes = {"builtin:cornell", "builtin:teapot-stadium:4000",
+                                          "builtin:soup:3000", "builtin:hairball:5000",
+                                          "builtin:sphere:2000"};
+
+constexpr float kAlpha = 0.995f, kCostRatio = 1.f;
+
+Grid merged_copy(const Grid& grid, float alpha = kAlpha, float cost_ratio = kCostRatio) {
+  CpuExecutor exec;
+  Grid copy = grid;
+  merge_cells(exec, copy, alpha, cost_ratio);
+  return copy;
+}
+
+/// A scene's grid before and after merging, built once per scene for all tests.
+struct MergeCase {
+  Scene scene;
+  Grid before, after;
+  double merge_ms = 0;
+};
+
+const MergeCase& merge_case(const std::string& spec) {
+  static std::map<std::string, MergeCase> cache;
+  auto found = cache.find(spec);
+  if (found != cache.end()) return found->second;
+  MergeCase& c = cache[spec];
+  c.scene = load_scene(spec);
+  c.before = testing::build_test_grid(c.scene);
+  const auto start = std::chrono::steady_clock::now();
+  c.after = merged_copy(c.before);
+  c.merge_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return c;
+}
+
+bool same_grid(const Grid& a, const Grid& b) {
+  return std::memcmp(&a.info, &b.info, sizeof(GridInfo)) == 0 &&
+         a.entries.size() == b.entries.size() &&
+         std::memcmp(a.entries.data(), b.entries.data(), a.entries.size() * sizeof(Entry)) == 0 &&
+         a.cells.size() == b.cells.size() &&
+         std::memcmp(a.cells.data(), b.cells.data(), a.cells.size() * sizeof(Cell)) == 0 &&
+         a.refs == b.refs;
+}
+
+std::uint64_t cell_volume(const Cell& c) {
+  return std::uint64_t(c.hi[0] - c.lo[0]) * std::uint64_t(c.hi[1] - c.lo[1]) *
+         std::uint64_t(c.hi[2] - c.lo[2]);
+}
+
+/// The grid's total SAH cost up to a constant: sum of half area x (references + C).
+double sah_cost(const Grid& grid) {
+  double cost = 0;
+  for (const Cell& c : grid.cells)
+    cost += double(merge_detail::half_area(grid.info, c.lo, c.hi)) *
+            (double(c.end - c.begin) + kCostRatio);
+  return cost;
+}
+
+class GridMerge : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(GridMerge, CellCountDrops) {
+  const MergeCase& c = merge_case(GetParam());
+  std::printf("[ merge    ] %-28s cells %8u -> %8u, references %8u -> %8u, %.2f ms\n",
+              GetParam().c_str(), c.before.info.num_cells, c.after.info.num_cells,
+              c.before.info.num_refs, c.after.info.num_refs, c.merge_ms);
+  EXPECT_LT(c.after.info.num_cells, c.before.info.num_cells);
+  EXPECT_LE(c.after.info.num_refs, c.before.info.num_refs);
+}
+
+TEST_P(GridMerge, RoundsRepeatUntilOneKeepsAlphaOfTheCells) {
+  // A tiny positive alpha runs exactly one round; replay the rounds one by one.
+  const MergeCase& c = merge_case(GetParam());
+  Grid grid = c.before;
+  for (int round = 0; round < 100; ++round) {
+    const std::uint32_t before = grid.info.num_cells;
+    grid = merged_copy(grid, 1e-30f);
+    if (grid.info.num_cells == before ||
+        double(grid.info.num_cells) >= double(kAlpha) * double(before))
+      break;
+  }
+  EXPECT_TRUE(same_grid(grid, c.after));
+}
+
+TEST_P(GridMerge, CellsTileTheVirtualGridExactly) {
+  const Grid& grid = merge_case(GetParam()).after;
+  const GridInfo& info = grid.info;
+  ASSERT_EQ(grid.cells.size(), info.num_cells);
+  std::uint64_t volume = 0;
+  for (const Cell& c : grid.cells) {
+    for (int a = 0; a < 3; ++a) {
+      ASSERT_LE(0, c.lo[a]);
+      ASSERT_LT(c.lo[a], c.hi[a]);
+      ASSERT_LE(c.hi[a], info.virtual_dims[a]);
+    }
+    volume += cell_volume(c);
+  }
+  EXPECT_EQ(volume,
+            std::uint64_t(info.virtual_dims[0]) * info.virtual_dims[1] * info.virtual_dims[2]);
+}
+
+TEST_P(GridMerge, VoxelMapReturnsTheMergedCells) {
+  const Grid& grid = merge_case(GetParam()).after;
+  const GridInfo& info = grid.info;
+  for (std::uint32_t id = 0; id < info.num_cells; ++id) {
+    const Cell& c = grid.cells[id];
+    for (int corner = 0; corner < 8; ++corner) {
+      const Voxel v{(corner & 1) ? c.hi[0] - 1 : c.lo[0], (corner & 2) ? c.hi[1] - 1 : c.lo[1],
+                    (corner & 4) ? c.hi[2] - 1 : c.lo[2]};
+      ASSERT_EQ(lookup_cell(info, grid.entries.data(), v), id) << "corner " << corner;
+    }
+  }
+  Pcg32 rng;
+  rng.seed(23);
+  for (int k = 0; k < 20000; ++k) {
+    const Voxel v{std::int32_t(rng.next_u32() % std::uint32_t(info.virtual_dims[0])),
+                  std::int32_t(rng.next_u32() % std::uint32_t(info.virtual_dims[1])),
+                  std::int32_t(rng.next_u32() % std::uint32_t(info.virtual_dims[2]))};
+    const std::uint32_t id = lookup_cell(info, grid.entries.data(), v);
+    ASSERT_LT(id, info.num_cells);
+    const Cell& c = grid.cells[id];
+    for (int a = 0; a < 3; ++a)
+      ASSERT_TRUE(c.lo[a] <= v[a] && v[a] < c.hi[a]) << "voxel outside its cell";
+  }
+}
+
+TEST_P(GridMerge, ListsAreSortedUniqueAndCoverTheReferenceArray) {
+  const Grid& grid = merge_case(GetParam()).after;
+  ASSERT_EQ(grid.refs.size(), grid.info.num_refs);
+  std::uint32_t expected_begin = 0;
+  for (const Cell& c : grid.cells) {
+    ASSERT_EQ(c.begin, expected_begin) << "lists are packed in cell order";
+    ASSERT_LE(c.begin, c.end);
+    for (std::uint32_t r = c.begin + 1; r < c.end; ++r)
+      ASSERT_LT(grid.refs[r - 1], grid.refs[r]);
+    for (std::uint32_t r = c.begin; r < c.end; ++r)
+      ASSERT_LT(grid.refs[r], grid.info.num_triangles);
+    expected_begin = c.end;
+  }
+  EXPECT_EQ(expected_begin, grid.info.num_refs);
+}
+
+TEST_P(GridMerge, EveryListIsTheUnionOfTheCellsMergedIntoIt) {
+  const MergeCase& c = merge_case(GetParam());
+  std::vector<std::vector<std::uint32_t>> expected(c.after.info.num_cells);
+  for (const Cell& old : c.before.cells) {
+    const std::uint32_t id =
+        lookup_cell(c.after.info, c.after.entries.data(), Voxel{old.lo[0], old.lo[1], old.lo[2]});
+    const Cell& merged = c.after.cells[id];
+    for (int a = 0; a < 3; ++a)
+      ASSERT_TRUE(merged.lo[a] <= old.lo[a] && old.hi[a] <= merged.hi[a]) << "cell split";
+    expected[id].insert(expected[id].end(), c.before.refs.begin() + old.begin,
+                        c.before.refs.begin() + old.end);
+  }
+  for (std::uint32_t id = 0; id < c.after.info.num_cells; ++id) {
+    auto& list = expected[id];
+    std::sort(list.begin(), list.end());
+    list.erase(std::unique(list.begin(), list.end()), list.end());
+    const Cell& merged = c.after.cells[id];
+    ASSERT_TRUE(std::equal(list.begin(), list.end(), c.after.refs.begin() + merged.begin,
+                           c.after.refs.begin() + merged.end))
+        << "cell " << id;
+  }
+}
+
+TEST_P(GridMerge, EveryTriangleTouchingACellIsInItsList) {
+  const MergeCase& c = merge_case(GetParam());
+  const Grid& grid = c.after;
+  std::size_t overlaps = 0;
+  const std::size_t stride = std::max<std::size_t>(1, grid.cells.size() / 1500);
+  for (std::size_t id = 0; id < grid.cells.size(); id += stride) {
+    const Cell& cell = grid.cells[id];
+    Vec3<float> lo, hi;
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = voxel_to_world(grid.info, a, cell.lo[a]);
+      hi[a] = voxel_to_world(grid.info, a, cell.hi[a]);
+    }
+    const auto* list_begin = grid.refs.data() + cell.begin;
+    const auto* list_end = grid.refs.data() + cell.end;
+    for (std::uint32_t t = 0; t < grid.info.num_triangles; ++t) {
+      const auto& tri = grid.triangles[t];
+      if (!triangle_overlaps_box(tri.p0, tri.p1, tri.p2, lo, hi, 0.f)) continue;
+      ++overlaps;
+      ASSERT_TRUE(std::binary_search(list_begin, list_end, t)) << "triangle " << t << " missing";
+    }
+  }
+  EXPECT_GT(overlaps, 0u);
+}
+
+TEST_P(GridMerge, SahCostDoesNotGrow) {
+  const MergeCase& c = merge_case(GetParam());
+  EXPECT_LE(sah_cost(c.after), sah_cost(c.before) * (1 + 1e-5));
+}
+
+TEST_P(GridMerge, AlphaZeroOrBelowChangesNothing) {
+  const Grid& before = merge_case(GetParam()).before;
+  for (float alpha : {0.f, -1.f, std::numeric_limits<float>::quiet_NaN()})
+    EXPECT_TRUE(same_grid(merged_copy(before, alpha), before)) << "alpha " << alpha;
+}
+
+TEST_P(GridMerge, SameResultWhateverTheThreadCount) {
+  const MergeCase& c = merge_case(GetParam());
+  auto merge_with = [&](int threads) {
+    tbb::global_control control(tbb::global_control::max_allowed_parallelism, threads);
+    return merged_copy(c.before);
+  };
+  const Grid one = merge_with(1), two = merge_with(2);
+  EXPECT_TRUE(same_grid(one, two));
+  EXPECT_TRUE(same_grid(one, c.after));
+}
+
+/// Random rays through the scene box, and rays that start on faces of merged cells.
+std::vector<Ray> test_rays(const Scene& scene, const Grid& grid) {
+  std::vector<Ray> rays = random_rays(scene.bounds(), 3000, 41);
+  Pcg32 rng;
+  rng.seed(5);
+  for (int k = 0; k < 2000; ++k) {
+    const Cell& c = grid.cells[rng.next_u32() % grid.cells.size()];
+    Ray ray{{0, 0, 0}, 0, {0, 0, 0}, std::numeric_limits<float>::infinity()};
+    for (int a = 0; a < 3; ++a) {
+      const float lo = voxel_to_world(grid.info, a, c.lo[a]);
+      const float hi = voxel_to_world(grid.info, a, c.hi[a]);
+      ray.org[a] = lo + rng.next_float() * (hi - lo);
+      ray.dir[a] = rng.next_float() - 0.5f;
+    }
+    const int face_axis = int(rng.next_u32() % 3);
+    ray.org[face_axis] = voxel_to_world(grid.info, face_axis,
+                                        (rng.next_u32() & 1) ? c.hi[face_axis] : c.lo[face_axis]);
+    if (k % 4 == 0)  // along an axis
+      for (int a = 0; a < 3; ++a)
+        ray.dir[a] = a == face_axis ? 1.f : 0.f;
+    rays.push_back(ray);
+  }
+  return rays;
+}
+
+template <Query kQuery>
+std::uint64_t traversal_mismatches(const MergeCase& c, const ReferenceTracer& reference,
+                                   const std::vector<Ray>& rays) {
+  const Grid& grid = c.after;
+  const GridView view{grid.info, grid.entries.data(), grid.cells.data(), grid.refs.data(),
+                      grid.triangles.data()};
+  std::vector<Hit> hits(rays.size());
+  for (std::size_t i = 0; i < rays.size(); ++i)
+    hits[i] = traverse_grid<kQuery>(view, rays[i]);
+  const auto result = validate_hits(reference, c.scene, rays, hits, kQuery, rays.size());
+  EXPECT_EQ(result.checked, rays.size());
+  if (!result.examples.empty()) ADD_FAILURE() << result.examples[0];
+  return result.mismatches;
+}
+
+TEST_P(GridMerge, TraversalOfTheMergedGridMatchesTheReference) {
+  const MergeCase& c = merge_case(GetParam());
+  const ReferenceTracer reference(c.scene);
+  const auto rays = test_rays(c.scene, c.after);
+  EXPECT_EQ(traversal_mismatches<Query::closest>(c, reference, rays), 0u);
+  EXPECT_EQ(traversal_mismatches<Query::any>(c, reference, rays), 0u);
+}
+
+/// build_grid's phases up to assemble_grid: the voxel map still in octree form.
+Grid build_octree_form_grid(const Scene& scene) {
+  CpuExecutor exec;
+  Grid grid;
+  for (const auto& tri : scene.triangles)
+    grid.triangles.push_back({Vec3<float>::from(scene.vertices[tri[0]]),
+                              Vec3<float>::from(scene.vertices[tri[1]]),
+                              Vec3<float>::from(scene.vertices[tri[2]])});
+  const BuildConfig config;
+  const auto count = std::uint32_t(grid.triangles.size());
+  grid.info = plan_top_grid(exec, grid.triangles.data(), count, config);
+  auto pairs = emit_top_level_refs(exec, grid.triangles.data(), grid.info);
+  const auto depths = top_cell_depths(exec, grid.info, pairs, config);
+  auto levels = build_octree_levels(exec, grid.info, grid.triangles.data(), std::move(pairs),
+                                    depths.data(), config.shape);
+  assemble_grid(exec, levels, grid);
+  return grid;
+}
+
+TEST_P(GridMerge, MergingTheOctreeFormMapThenCompactingGivesTheSameCells) {
+  const MergeCase& c = merge_case(GetParam());
+  CpuExecutor exec;
+  Grid grid = build_octree_form_grid(c.scene);
+  const std::vector<std::uint32_t> level_offsets = grid.level_offsets;
+  merge_cells(exec, grid, kAlpha, kCostRatio);
+  EXPECT_EQ(grid.level_offsets, level_offsets) << "the map keeps its shape";
+  compact_map(exec, grid);
+  ASSERT_EQ(grid.info.num_cells, c.after.info.num_cells);
+  EXPECT_EQ(std::memcmp(grid.cells.data(), c.after.cells.data(), grid.cells.size() * sizeof(Cell)),
+            0);
+  EXPECT_EQ(grid.refs, c.after.refs);
+  for (std::uint32_t id = 0; id < grid.info.num_cells; ++id) {
+    const Cell& cell = grid.cells[id];
+    ASSERT_EQ(
+        lookup_cell(grid.info, grid.entries.data(), Voxel{cell.lo[0], cell.lo[1], cell.lo[2]}), id);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Builtin, GridMerge, ::testing::ValuesIn(kScenes), [](const auto& info) {
+  std::string name = info.param.substr(8);
+  for (char& c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+  return name;
+});
+
+TEST(GridMergeParameters, AlphaOneAndAboveStopWhenNothingMerges) {
+  const MergeCase& c = merge_case("builtin:cornell");
+  const Grid one = merged_copy(c.before, 1.f), four = merged_copy(c.before, 4.f);
+  EXPECT_LE(one.info.num_cells, c.after.info.num_cells);
+  EXPECT_TRUE(same_grid(one, four));
+  EXPECT_TRUE(same_grid(merged_copy(one, 1.f), one)) << "a fixed point: nothing left to merge";
+}
+
+TEST(GridMergeParameters, InvalidCostRatioNamesTheValue) {
+  const Grid& before = merge_case("builtin:cornell").before;
+  for (float bad :
+       {-1.f, std::numeric_limits<float>::infinity(), std::numeric_limits<float>::quiet_NaN()}) {
+    try {
+      merged_copy(before, kAlpha, bad);
+      ADD_FAILURE() << "cost_ratio " << bad << " accepted";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.code(), ErrorCode::invalid_argument);
+      EXPECT_NE(std::string(e.what()).find("cost_ratio"), std::string::npos);
+    }
+  }
+}
+
+TEST(GridMergeParameters, HigherCostRatioMergesMore) {
+  const MergeCase& c = merge_case("builtin:teapot-stadium:4000");
+  const Grid cheap = merged_copy(c.before, kAlpha, 0.f), dear = merged_copy(c.before, kAlpha, 8.f);
+  EXPECT_LT(dear.info.num_cells, cheap.info.num_cells);
+}
+
+TEST(GridMergeLists, SortedUnionOfSortedLists) {
+  const std::uint32_t a[] = {1, 4, 5, 9}, b[] = {0, 4, 9, 12, 13};
+  std::uint32_t out[9] = {};
+  EXPECT_EQ(sorted_union_size(a, 4, b, 5), 7u);
+  EXPECT_EQ(sorted_union_size(a, 0, b, 5), 5u);
+  EXPECT_EQ(sorted_union_size(a, 4, b, 0), 4u);
+  ASSERT_EQ(write_sorted_union(a, 4, b, 5, out), 7u);
+  const std::uint32_t expected[] = {0, 1, 4, 5, 9, 12, 13};
+  EXPECT_TRUE(std::equal(expected, expected + 7, out));
+}
+
+}  // namespace
+}  // namespace irgrid
