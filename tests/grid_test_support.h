@@ -1,11 +1,14 @@
 // tests/grid_test_support.h: building a grid directly from a scene for the grid tests.
 #pragma once
 
+#include <gtest/gtest.h>
+
 #include <map>
 #include <string>
 
 #include "core/build/build_grid.h"
 #include "cpu/cpu_executor.h"
+#include "cpu/structures.h"
 #include "irgrid/scene.h"
 
 namespace irgrid::testing {
@@ -23,13 +26,33 @@ inline GridArrays<CpuExecutor> build_test_grid(const Scene& scene,
                                                const BuildConfig& config = initial_grid_config()) {
   CpuExecutor exec;
   GridArrays<CpuExecutor> grid;
-  for (const auto& tri : scene.triangles)
-    grid.triangles.push_back({Vec3<float>::from(scene.vertices[tri[0]]),
-                              Vec3<float>::from(scene.vertices[tri[1]]),
-                              Vec3<float>::from(scene.vertices[tri[2]])});
+  gather_triangles(scene, grid.triangles);
   std::map<std::string, double> phases;
   build_grid(exec, grid, config, phases);
   return grid;
+}
+
+inline std::uint64_t cell_volume(const Cell& c) {
+  return std::uint64_t(c.hi[0] - c.lo[0]) * std::uint64_t(c.hi[1] - c.lo[1]) *
+         std::uint64_t(c.hi[2] - c.lo[2]);
+}
+
+/// Every cell lies inside the virtual grid and their volumes add up to the grid's (with the voxel
+/// map checks of the callers, this shows the cells tile the grid without overlap).
+inline void expect_cells_tile_grid(const GridArrays<CpuExecutor>& grid) {
+  const GridInfo& info = grid.info;
+  ASSERT_EQ(grid.cells.size(), info.num_cells);
+  std::uint64_t volume = 0;
+  for (const Cell& c : grid.cells) {
+    for (int a = 0; a < 3; ++a) {
+      ASSERT_LE(0, c.lo[a]);
+      ASSERT_LT(c.lo[a], c.hi[a]);
+      ASSERT_LE(c.hi[a], info.virtual_dims[a]);
+    }
+    volume += cell_volume(c);
+  }
+  EXPECT_EQ(volume,
+            std::uint64_t(info.virtual_dims[0]) * info.virtual_dims[1] * info.virtual_dims[2]);
 }
 
 }  // namespace irgrid::testing

@@ -21,29 +21,11 @@ const std::vector<std::string> kScenes = {"builtin:cornell",     "builtin:teapot
                                           "builtin:soup:3000",   "builtin:hairball:5000",
                                           "builtin:sphere:2000", "builtin:cube"};
 
-std::uint64_t cell_volume(const Cell& c) {
-  return std::uint64_t(c.hi[0] - c.lo[0]) * std::uint64_t(c.hi[1] - c.lo[1]) *
-         std::uint64_t(c.hi[2] - c.lo[2]);
-}
-
 class GridBuild : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(GridBuild, CellsTileTheVirtualGridExactly) {
   const auto grid = build_test_grid(load_scene(GetParam()));
-  const GridInfo& info = grid.info;
-  ASSERT_EQ(grid.cells.size(), info.num_cells);
-  std::uint64_t volume = 0;
-  for (const Cell& c : grid.cells) {
-    for (int a = 0; a < 3; ++a) {
-      ASSERT_LE(0, c.lo[a]);
-      ASSERT_LT(c.lo[a], c.hi[a]);
-      ASSERT_LE(c.hi[a], info.virtual_dims[a]);
-    }
-    volume += cell_volume(c);
-  }
-  // Disjoint cells (checked through the voxel map below) whose volumes add up to the grid's.
-  EXPECT_EQ(volume,
-            std::uint64_t(info.virtual_dims[0]) * info.virtual_dims[1] * info.virtual_dims[2]);
+  testing::expect_cells_tile_grid(grid);
 }
 
 TEST_P(GridBuild, VoxelMapReturnsTheCellContainingEachVoxel) {

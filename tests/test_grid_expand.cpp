@@ -85,11 +85,6 @@ bool same_cells(const Grid& a, const Grid& b) {
          std::memcmp(a.cells.data(), b.cells.data(), a.cells.size() * sizeof(Cell)) == 0;
 }
 
-std::uint64_t cell_volume(const Cell& c) {
-  return std::uint64_t(c.hi[0] - c.lo[0]) * std::uint64_t(c.hi[1] - c.lo[1]) *
-         std::uint64_t(c.hi[2] - c.lo[2]);
-}
-
 GridView view_of(const Grid& grid) {
   return {grid.info, grid.entries.data(), grid.cells.data(), grid.refs.data(),
           grid.triangles.data()};
@@ -174,9 +169,9 @@ TEST_P(GridExpand, CellsGrow) {
     std::size_t grown = 0;
     std::uint64_t volume_before = 0, volume_after = 0;
     for (std::size_t id = 0; id < grid.cells.size(); ++id) {
-      grown += cell_volume(grid.cells[id]) > cell_volume(c.before.cells[id]);
-      volume_before += cell_volume(c.before.cells[id]);
-      volume_after += cell_volume(grid.cells[id]);
+      grown += testing::cell_volume(grid.cells[id]) > testing::cell_volume(c.before.cells[id]);
+      volume_before += testing::cell_volume(c.before.cells[id]);
+      volume_after += testing::cell_volume(grid.cells[id]);
     }
     EXPECT_GT(grown, 0u) << setting.name();
     std::printf("%-28s %-22s %7zu cells, %6zu grew, exit/entry volume %.2f, %.1f ms\n",

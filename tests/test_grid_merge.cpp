@@ -69,11 +69,6 @@ bool same_grid(const Grid& a, const Grid& b) {
          a.refs == b.refs;
 }
 
-std::uint64_t cell_volume(const Cell& c) {
-  return std::uint64_t(c.hi[0] - c.lo[0]) * std::uint64_t(c.hi[1] - c.lo[1]) *
-         std::uint64_t(c.hi[2] - c.lo[2]);
-}
-
 /// The grid's total SAH cost up to a constant: sum of half area x (references + C).
 double sah_cost(const Grid& grid) {
   double cost = 0;
@@ -110,19 +105,7 @@ TEST_P(GridMerge, RoundsRepeatUntilOneKeepsAlphaOfTheCells) {
 
 TEST_P(GridMerge, CellsTileTheVirtualGridExactly) {
   const Grid& grid = merge_case(GetParam()).after;
-  const GridInfo& info = grid.info;
-  ASSERT_EQ(grid.cells.size(), info.num_cells);
-  std::uint64_t volume = 0;
-  for (const Cell& c : grid.cells) {
-    for (int a = 0; a < 3; ++a) {
-      ASSERT_LE(0, c.lo[a]);
-      ASSERT_LT(c.lo[a], c.hi[a]);
-      ASSERT_LE(c.hi[a], info.virtual_dims[a]);
-    }
-    volume += cell_volume(c);
-  }
-  EXPECT_EQ(volume,
-            std::uint64_t(info.virtual_dims[0]) * info.virtual_dims[1] * info.virtual_dims[2]);
+  testing::expect_cells_tile_grid(grid);
 }
 
 TEST_P(GridMerge, VoxelMapReturnsTheMergedCells) {

@@ -10,19 +10,11 @@
 namespace irgrid {
 namespace {
 
-struct TriangleVertices {
-  Vec3<float> p0, p1, p2;
-};
-
 class BruteForceCpu final : public Accelerator {
  public:
   explicit BruteForceCpu(const Scene& scene) {
     const auto start = std::chrono::steady_clock::now();
-    triangles_.reserve(scene.triangles.size());
-    for (const auto& tri : scene.triangles)
-      triangles_.push_back({Vec3<float>::from(scene.vertices[tri[0]]),
-                            Vec3<float>::from(scene.vertices[tri[1]]),
-                            Vec3<float>::from(scene.vertices[tri[2]])});
+    gather_triangles(scene, triangles_);
     info_.build_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     info_.phases_ms["triangles"] = info_.build_ms;

@@ -33,13 +33,7 @@ class GridCpu final : public Accelerator {
     CpuExecutor exec;
     MemoryMeter::reset_peak();
     const std::int64_t before = MemoryMeter::current();
-    grid_.triangles.resize(scene.triangles.size());
-    tbb::parallel_for(std::size_t(0), scene.triangles.size(), [&](std::size_t i) {
-      const auto& tri = scene.triangles[i];
-      grid_.triangles[i] = {Vec3<float>::from(scene.vertices[tri[0]]),
-                            Vec3<float>::from(scene.vertices[tri[1]]),
-                            Vec3<float>::from(scene.vertices[tri[2]])};
-    });
+    gather_triangles(scene, grid_.triangles);
     if (!grid_.triangles.empty()) build_grid(exec, grid_, config, info_.phases_ms);
     info_.build_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

@@ -4,6 +4,7 @@
 #include <memory>
 #include <span>
 
+#include "core/triangle.h"
 #include "irgrid/accelerator.h"
 
 namespace irgrid {
@@ -17,6 +18,17 @@ std::unique_ptr<Accelerator> make_embree_cpu(const Scene& scene);
 #if IRGRID_HAS_CUDA
 std::unique_ptr<Accelerator> make_brute_force_cuda(const Scene& scene);
 #endif
+
+/// Appends the scene's triangles, in order, to `out` in the tracers' layout (any vector type).
+template <typename Vector>
+void gather_triangles(const Scene& scene, Vector& out) {
+  out.resize(scene.triangles.size());
+  for (std::size_t i = 0; i < scene.triangles.size(); ++i) {
+    const auto& tri = scene.triangles[i];
+    out[i] = {Vec3<float>::from(scene.vertices[tri[0]]), Vec3<float>::from(scene.vertices[tri[1]]),
+              Vec3<float>::from(scene.vertices[tri[2]])};
+  }
+}
 
 /// Throws Error{invalid_argument} unless rays and hits have the same length.
 void check_trace_spans(std::span<const Ray> rays, std::span<Hit> hits);

@@ -8,10 +8,6 @@
 namespace irgrid {
 namespace {
 
-struct TriangleVertices {
-  Vec3<float> p0, p1, p2;
-};
-
 __global__ void __launch_bounds__(128)
     brute_force_kernel(const Ray* rays, Hit* hits, std::size_t ray_count,
                        const TriangleVertices* triangles, std::uint32_t triangle_count, bool any) {
@@ -34,11 +30,7 @@ class BruteForceCuda final : public Accelerator {
   explicit BruteForceCuda(const Scene& scene) {
     const auto start = std::chrono::steady_clock::now();
     std::vector<TriangleVertices> host;
-    host.reserve(scene.triangles.size());
-    for (const auto& tri : scene.triangles)
-      host.push_back({Vec3<float>::from(scene.vertices[tri[0]]),
-                      Vec3<float>::from(scene.vertices[tri[1]]),
-                      Vec3<float>::from(scene.vertices[tri[2]])});
+    gather_triangles(scene, host);
     triangles_ = cuda::DeviceBuffer<TriangleVertices>(host.size(), "brute-force triangles");
     triangles_.upload(host.data(), host.size());
     info_.build_ms =

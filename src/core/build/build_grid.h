@@ -49,20 +49,6 @@ typename Exec::template Buffer<std::int32_t> top_cell_depths(Exec& exec, GridInf
   return depths;
 }
 
-/// Copies the scene's triangles into the tracers' layout.
-template <typename Exec>
-typename Exec::template Buffer<TriangleVertices> gather_triangles(Exec& exec,
-                                                                  const Vec3<float>* vertices,
-                                                                  const std::uint32_t* indices,
-                                                                  std::uint32_t count) {
-  auto triangles = exec.template allocate<TriangleVertices>(count);
-  TriangleVertices* out = triangles.data();
-  exec.for_each("triangles", count, [=] IRGRID_HD(std::size_t i) {
-    out[i] = {vertices[indices[3 * i]], vertices[indices[3 * i + 1]], vertices[indices[3 * i + 2]]};
-  });
-  return triangles;
-}
-
 /// Wall time of the build's phases, in order; waits for the executor before each reading.
 template <typename Exec>
 class PhaseClock {
