@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cstring>
 
+#include "core/build/compress_cells.h"
 #include "core/random.h"
 #include "core/triangle_box.h"
 #include "grid_test_support.h"
@@ -109,12 +110,62 @@ TEST_P(GridBuild, SameGridWhateverTheThreadCount) {
   EXPECT_EQ(one.refs, two.refs);
 }
 
+TEST_P(GridBuild, RangesFollowTheCellOrderAndCompressLosslessly) {
+  for (const BuildConfig& config : {testing::initial_grid_config(), BuildConfig{}}) {
+    const auto grid = build_test_grid(load_scene(GetParam()), config);
+    std::uint32_t expected_begin = 0;
+    for (const Cell& c : grid.cells) {
+      ASSERT_EQ(c.begin, expected_begin) << "a gap or overlap between reference ranges";
+      expected_begin = c.end;
+    }
+    EXPECT_EQ(expected_begin, grid.info.num_refs);
+    ASSERT_TRUE(fits_compact_cells(grid.info));
+    CpuExecutor exec;
+    CpuExecutor::Buffer<CompactCell> compact;
+    compress_cells(exec, grid, compact);
+    ASSERT_EQ(compact.size(), grid.cells.size() + 1);
+    for (std::uint32_t i = 0; i < grid.info.num_cells; ++i) {
+      const Cell a = grid.cells[i], b = load_cell(compact.data(), i);
+      ASSERT_EQ(std::memcmp(&a, &b, sizeof(Cell)), 0) << "cell " << i;
+    }
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Builtin, GridBuild, ::testing::ValuesIn(kScenes), [](const auto& info) {
   std::string name = info.param.substr(8);
   for (char& c : name)
     if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
   return name;
 });
+
+TEST(GridLimits, ClearyResolutionIsTheFloorOfExtentOverSide) {
+  Pcg32 rng;
+  rng.seed(7);
+  for (int k = 0; k < 20000; ++k) {
+    const Vec3<float> extent{std::ldexp(rng.next_float() + 0.01f, int(rng.next_u32() % 20) - 10),
+                             std::ldexp(rng.next_float() + 0.01f, int(rng.next_u32() % 20) - 10),
+                             k % 4 == 0 ? 0.f : rng.next_float() + 0.01f};
+    const double density = std::ldexp(double(rng.next_float()) + 0.01, int(rng.next_u32() % 8) - 4);
+    const double count = double(rng.next_u32() % 100000 + 1);
+    double dims[3];
+    cleary_resolution(extent, density, count, 0.f, dims);
+    int axes = 0;
+    long double volume = 1;
+    for (int a = 0; a < 3; ++a)
+      if (extent[a] > 0) volume *= extent[a], ++axes;
+    const long double side = std::pow(volume / ((long double)density * count), 1.0L / axes);
+    for (int a = 0; a < 3; ++a) {
+      if (!(extent[a] > 0)) {
+        EXPECT_EQ(dims[a], 1.0);
+        continue;
+      }
+      const long double exact = extent[a] / side;
+      // Equal to the floor except where the quotient sits within rounding of an integer.
+      if (std::fabs(exact - std::round(exact)) < 1e-9L * exact) continue;
+      EXPECT_EQ(dims[a], double(std::floor(exact))) << "axis " << a << " extent " << extent[a];
+    }
+  }
+}
 
 TEST(GridLimits, InvalidParametersNameTheValue) {
   const Scene scene = load_scene("builtin:cube");

@@ -86,7 +86,7 @@ bool same_cells(const Grid& a, const Grid& b) {
 }
 
 GridView view_of(const Grid& grid) {
-  return {grid.info, grid.entries.data(), grid.cells.data(), grid.refs.data(),
+  return {grid.info, grid.entries.data(), grid.cells.data(), nullptr, grid.refs.data(),
           grid.triangles.data()};
 }
 

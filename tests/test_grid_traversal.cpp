@@ -2,6 +2,7 @@
 // and extreme parameters.
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <limits>
 
 #include "core/random.h"
@@ -93,6 +94,28 @@ void expect_exact(const Scene& scene, const std::string& structure, const BuildC
     EXPECT_EQ(result.mismatches, 0u)
         << what << " " << structure << (query == Query::any ? " any" : " closest") << ": "
         << (result.examples.empty() ? "" : result.examples[0]);
+  }
+}
+
+TEST(GridTraversal, CompressedAndFullCellsGiveIdenticalHits) {
+  for (const char* spec : {"builtin:cornell", "builtin:teapot-stadium:3000", "builtin:soup:2000"}) {
+    const Scene scene = load_scene(spec);
+    const std::vector<Ray> rays = adversarial_rays(scene);
+    AcceleratorOptions full, compressed;
+    full.grid.compress = false;
+    compressed.grid.compress = true;
+    const auto a = make_accelerator(scene, "irregular", full);
+    const auto b = make_accelerator(scene, "irregular", compressed);
+    EXPECT_EQ(a->build_info().counts.at("compressed_cells"), 0u);
+    EXPECT_EQ(b->build_info().counts.at("compressed_cells"), 1u);
+    EXPECT_EQ(b->build_info().bytes.at("cells") * 2,
+              a->build_info().bytes.at("cells") + 32);  // half, plus the 16-byte sentinel
+    for (Query query : {Query::closest, Query::any}) {
+      std::vector<Hit> hits_a(rays.size()), hits_b(rays.size());
+      a->trace(rays, hits_a, query);
+      b->trace(rays, hits_b, query);
+      EXPECT_EQ(std::memcmp(hits_a.data(), hits_b.data(), rays.size() * sizeof(Hit)), 0) << spec;
+    }
   }
 }
 

@@ -6,6 +6,8 @@
 #include <tbb/parallel_for.h>
 
 #include "core/build/build_grid.h"
+#include "core/build/compress_cells.h"
+#include "core/build/grid_statistics.h"
 #include "core/grid/traverse.h"
 #include "cpu/cpu_executor.h"
 #include "cpu/structures.h"
@@ -14,30 +16,26 @@
 namespace irgrid {
 namespace {
 
-const char* shape_name(BuildConfig::Shape shape) {
-  switch (shape) {
-    case BuildConfig::Shape::irregular:
-      return "irregular";
-    case BuildConfig::Shape::two_level:
-      return "two-level";
-    case BuildConfig::Shape::uniform:
-      return "uniform";
-  }
-  return "grid";
-}
-
 class GridCpu final : public Accelerator {
  public:
-  GridCpu(const Scene& scene, const BuildConfig& config) : name_(shape_name(config.shape)) {
+  GridCpu(const Scene& scene, const BuildConfig& config) : name_(grid_shape_name(config.shape)) {
     const auto start = std::chrono::steady_clock::now();
     CpuExecutor exec;
     MemoryMeter::reset_peak();
     const std::int64_t before = MemoryMeter::current();
     gather_triangles(scene, grid_.triangles);
-    if (!grid_.triangles.empty()) build_grid(exec, grid_, config, info_.phases_ms);
+    if (!grid_.triangles.empty()) {
+      build_grid(exec, grid_, config, info_.phases_ms);
+      if (config.compress && fits_compact_cells(grid_.info)) {
+        PhaseClock clock(exec, info_.phases_ms);
+        compress_cells(exec, grid_, compact_cells_);
+        grid_.cells = {};
+        clock.lap("compress");
+      }
+    }
     info_.build_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    record_statistics();
+    record_grid_statistics(grid_.info, !compact_cells_.empty(), info_);
     info_.counts["peak_build_bytes"] = std::uint64_t(MemoryMeter::peak() - before);
   }
 
@@ -47,16 +45,7 @@ class GridCpu final : public Accelerator {
 
   void trace(std::span<const Ray> rays, std::span<Hit> hits, Query query) const override {
     check_trace_spans(rays, hits);
-    if (grid_.triangles.empty()) {
-      std::fill(hits.begin(), hits.end(), Hit{});
-      return;
-    }
-    const GridView view = this->view();
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rays.size(), 64), [&](const auto& range) {
-      for (std::size_t i = range.begin(); i != range.end(); ++i)
-        hits[i] = query == Query::closest ? traverse_grid<Query::closest>(view, rays[i])
-                                          : traverse_grid<Query::any>(view, rays[i]);
-    });
+    trace_all(rays, hits, {}, query);
   }
 
   void trace_counted(std::span<const Ray> rays, std::span<Hit> hits, std::span<RayWork> work,
@@ -64,49 +53,59 @@ class GridCpu final : public Accelerator {
     check_trace_spans(rays, hits);
     if (work.size() != rays.size())
       throw Error(ErrorCode::invalid_argument, "trace_counted: one RayWork per ray expected");
+    trace_all(rays, hits, work, query);
+  }
+
+ private:
+  GridView view() const {
+    return {grid_.info,        grid_.entries.data(), grid_.cells.data(), compact_cells_.data(),
+            grid_.refs.data(), grid_.triangles.data()};
+  }
+
+  /// Traces every ray with the traversal instantiated for this grid's cell layout and the query;
+  /// counts work when `work` is not empty.
+  void trace_all(std::span<const Ray> rays, std::span<Hit> hits, std::span<RayWork> work,
+                 Query query) const {
     if (grid_.triangles.empty()) {
       std::fill(hits.begin(), hits.end(), Hit{});
       std::fill(work.begin(), work.end(), RayWork{});
       return;
     }
+    if (!compact_cells_.empty())
+      trace_layout<CompactCell>(rays, hits, work, query);
+    else
+      trace_layout<Cell>(rays, hits, work, query);
+  }
+
+  template <typename CellT>
+  void trace_layout(std::span<const Ray> rays, std::span<Hit> hits, std::span<RayWork> work,
+                    Query query) const {
+    if (query == Query::closest)
+      trace_query<Query::closest, CellT>(rays, hits, work);
+    else
+      trace_query<Query::any, CellT>(rays, hits, work);
+  }
+
+  template <Query kQuery, typename CellT>
+  void trace_query(std::span<const Ray> rays, std::span<Hit> hits, std::span<RayWork> work) const {
     const GridView view = this->view();
+    const bool counted = !work.empty();
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rays.size(), 64), [&](const auto& range) {
       for (std::size_t i = range.begin(); i != range.end(); ++i) {
+        if (!counted) {
+          hits[i] = traverse_grid<kQuery, CellT>(view, rays[i]);
+          continue;
+        }
         TraversalCounters counters;
-        hits[i] = query == Query::closest ? traverse_grid<Query::closest>(view, rays[i], &counters)
-                                          : traverse_grid<Query::any>(view, rays[i], &counters);
+        hits[i] = traverse_grid<kQuery, CellT>(view, rays[i], &counters);
         work[i] = {counters.cells, counters.triangles};
       }
     });
   }
 
-  /// The grid's arrays, for tests and statistics.
-  GridView view() const {
-    return {grid_.info, grid_.entries.data(), grid_.cells.data(), grid_.refs.data(),
-            grid_.triangles.data()};
-  }
-
- private:
-  void record_statistics() {
-    const GridInfo& g = grid_.info;
-    info_.counts = {{"cells", g.num_cells},
-                    {"references", g.num_refs},
-                    {"entries", g.num_entries},
-                    {"top_x", std::uint64_t(g.top_dims[0])},
-                    {"top_y", std::uint64_t(g.top_dims[1])},
-                    {"top_z", std::uint64_t(g.top_dims[2])},
-                    {"depth", std::uint64_t(g.shift)}};
-    info_.bytes = {{"cells", std::uint64_t(g.num_cells) * sizeof(Cell)},
-                   {"references", std::uint64_t(g.num_refs) * sizeof(std::uint32_t)},
-                   {"voxel_map", std::uint64_t(g.num_entries) * sizeof(Entry)},
-                   {"triangles", std::uint64_t(grid_.triangles.size()) * sizeof(TriangleVertices)}};
-    info_.memory_bytes = 0;
-    for (const auto& [name, bytes] : info_.bytes)
-      info_.memory_bytes += bytes;
-  }
-
   std::string name_;
   GridArrays<CpuExecutor> grid_;
+  CpuExecutor::Buffer<CompactCell> compact_cells_;
   BuildInfo info_;
 };
 

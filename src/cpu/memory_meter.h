@@ -40,8 +40,8 @@ struct MeteredAllocator {
     return p;
   }
   void deallocate(T* p, std::size_t n) noexcept {
-    std::allocator<T>().deallocate(p, n);
     MemoryMeter::add(-std::int64_t(n * sizeof(T)));
+    std::allocator<T>().deallocate(p, n);
   }
   template <typename U>
   bool operator==(const MeteredAllocator<U>&) const noexcept {

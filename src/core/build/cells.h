@@ -43,18 +43,26 @@ typename Exec::template Buffer<T> concatenate(
   return out;
 }
 
-/// Sorts the pairs by cell (stable) and writes each cell's [begin, end) range.
+/// Sorts the pairs by cell (stable) and writes each cell's [begin, end) range. Ranges follow
+/// the cell order without gaps, empty cells included (begin == end at their place), so a cell's
+/// end is the next cell's begin, which compressed cells rely on.
 template <typename Exec>
 typename Exec::template Buffer<std::uint32_t> sort_references(Exec& exec, RefPairs<Exec>& pairs,
                                                               Cell* cells,
                                                               std::uint32_t num_cells) {
   const int key_bits = std::max(1, int(std::bit_width(num_cells)));
   exec.sort_pairs("sort references", pairs.cell.data(), pairs.tri.data(), pairs.count, key_bits);
+  auto counts = exec.template allocate<std::uint32_t>(num_cells);
+  auto begins = exec.template allocate<std::uint32_t>(num_cells);
+  std::uint32_t *d_counts = counts.data(), *d_begins = begins.data();
   const std::uint32_t* cell = pairs.cell.data();
-  const std::uint32_t n = pairs.count;
-  exec.for_each("reference ranges", n, [=] IRGRID_HD(std::size_t i) {
-    if (i == 0 || cell[i] != cell[i - 1]) cells[cell[i]].begin = std::uint32_t(i);
-    if (i + 1 == n || cell[i] != cell[i + 1]) cells[cell[i]].end = std::uint32_t(i + 1);
+  exec.for_each("reference counts", num_cells, [=] IRGRID_HD(std::size_t i) { d_counts[i] = 0; });
+  exec.for_each("reference counts", pairs.count,
+                [=] IRGRID_HD(std::size_t i) { atomic_add(&d_counts[cell[i]], 1u); });
+  exec.exclusive_scan("reference ranges", d_counts, d_begins, num_cells);
+  exec.for_each("reference ranges", num_cells, [=] IRGRID_HD(std::size_t i) {
+    cells[i].begin = d_begins[i];
+    cells[i].end = d_begins[i] + d_counts[i];
   });
   return std::move(pairs.tri);
 }

@@ -56,49 +56,82 @@ IRGRID_HD inline std::uint32_t walk_octree(const Entry* entries, std::uint32_t e
   return entry;
 }
 
-/// Rebuilds the map with up to 3 octree levels per map level. Works chunk by chunk: the roots of
-/// a chunk are old entries; each inner root gets a dense block of (2^min(depth, 3))^3 entries
-/// whose inner members become the roots of the next chunk. Runs on the host over host-visible
-/// entries (the CPU executor's buffers); a CUDA version needs a parallel form of the same walk.
+/// Rebuilds the map with up to 3 octree levels per map level, chunk by chunk: the roots of a
+/// chunk are old entries; each inner root gets a dense block of (2^min(depth, 3))^3 entries,
+/// placed by a scan over the roots' block sizes, and the inner members of those blocks become the
+/// roots of the next chunk (a stable selection, so blocks come out in the order of a serial
+/// breadth-first walk). Every step is an executor primitive, so the map never leaves the device.
 template <typename Exec>
 void flatten_map(Exec& exec, GridArrays<Exec>& grid, const std::uint8_t* depth) {
+  using Indices = typename Exec::template Buffer<std::uint32_t>;
   const Entry* old = grid.entries.data();
   const std::uint32_t top = grid.level_offsets[1];
-  std::vector<Entry> out(old, old + top);  // the top level keeps its place
-  std::vector<std::uint32_t> slots(top), roots(top);
-  for (std::uint32_t i = 0; i < top; ++i)
-    slots[i] = roots[i] = i;
-  while (!slots.empty()) {
-    std::vector<std::uint32_t> next_slots, next_roots;
-    for (std::size_t r = 0; r < roots.size(); ++r) {
-      const Entry root = old[roots[r]];
-      if (root.log_dim() == 0) {
-        out[slots[r]] = root;
-        continue;
-      }
-      const std::uint32_t steps = depth[roots[r]] < 3 ? depth[roots[r]] : 3, side = 1u << steps;
-      const auto block = std::uint32_t(out.size());
-      if (std::uint64_t(block) + side * side * side > kMaxEntryTarget)
-        throw Error(ErrorCode::limit_exceeded,
-                    "voxel map: more than 2^30 - 1 entries (lower lambda2)");
-      out[slots[r]] = Entry::inner(steps, block);
-      out.resize(block + side * side * side);
-      for (std::uint32_t j = 0; j < side * side * side; ++j) {
-        const std::uint32_t reached = walk_octree(old, roots[r], steps, j & (side - 1),
-                                                  j >> steps & (side - 1), j >> (2 * steps));
-        out[block + j] = old[reached];
-        if (old[reached].log_dim() != 0)
-          next_slots.push_back(block + j), next_roots.push_back(reached);
-      }
-    }
-    slots.swap(next_slots);
-    roots.swap(next_roots);
+  std::vector<typename Exec::template Buffer<Entry>> parts;
+  parts.push_back(exec.template allocate<Entry>(top));  // the top level keeps its place
+  Indices slots = exec.template allocate<std::uint32_t>(top);
+  Indices roots = exec.template allocate<std::uint32_t>(top);
+  {
+    std::uint32_t *d_slots = slots.data(), *d_roots = roots.data();
+    exec.for_each("flatten map", top,
+                  [=] IRGRID_HD(std::size_t i) { d_slots[i] = d_roots[i] = std::uint32_t(i); });
   }
-  grid.entries = exec.template allocate<Entry>(out.size());
-  Entry* d_out = grid.entries.data();
-  const Entry* h_out = out.data();
-  exec.for_each("flatten map", out.size(), [=](std::size_t i) { d_out[i] = h_out[i]; });
-  grid.info.num_entries = std::uint32_t(out.size());
+  std::uint32_t num_roots = top, written = top;
+  while (num_roots > 0) {
+    // Block size of every root, then where each block starts in this chunk's part.
+    auto offsets = exec.template allocate<std::uint32_t>(num_roots);
+    std::uint32_t* d_offsets = offsets.data();
+    const std::uint32_t *d_slots = slots.data(), *d_roots = roots.data();
+    exec.for_each("flatten map", num_roots, [=] IRGRID_HD(std::size_t r) {
+      const std::uint32_t root = d_roots[r];
+      const std::uint32_t steps = depth[root] < 3 ? depth[root] : 3;
+      d_offsets[r] = old[root].log_dim() == 0 ? 0 : 1u << (3 * steps);
+    });
+    const std::uint64_t chunk =
+        exec.transform_reduce("flatten map", num_roots, std::uint64_t(0),
+                              [] IRGRID_HD(std::uint64_t a, std::uint64_t b) { return a + b; },
+                              [=] IRGRID_HD(std::size_t r) { return std::uint64_t(d_offsets[r]); });
+    if (written + chunk > kMaxEntryTarget)
+      throw Error(ErrorCode::limit_exceeded,
+                  "voxel map: more than 2^30 - 1 entries (lower lambda2)");
+    exec.exclusive_scan("flatten map", d_offsets, d_offsets, num_roots);
+    auto block = exec.template allocate<Entry>(chunk);
+    auto reached = exec.template allocate<std::uint32_t>(chunk);
+    Entry *d_block = block.data(), *d_parent = parts.back().data();
+    std::uint32_t* d_reached = reached.data();
+    const std::uint32_t base = written;
+    exec.for_each("flatten map", num_roots, [=] IRGRID_HD(std::size_t r) {
+      const std::uint32_t root = d_roots[r];
+      if (old[root].log_dim() == 0) {
+        d_parent[d_slots[r]] = old[root];
+        return;
+      }
+      const std::uint32_t steps = depth[root] < 3 ? depth[root] : 3, side = 1u << steps;
+      d_parent[d_slots[r]] = Entry::inner(steps, base + d_offsets[r]);
+      for (std::uint32_t j = 0; j < side * side * side; ++j) {
+        const std::uint32_t at = walk_octree(old, root, steps, j & (side - 1),
+                                             j >> steps & (side - 1), j >> (2 * steps));
+        d_block[d_offsets[r] + j] = old[at];
+        d_reached[d_offsets[r] + j] = at;
+      }
+    });
+    // The inner members of the new blocks are the next roots.
+    std::uint32_t next_count = 0;
+    Indices next_slots = select_indices(
+        exec, "flatten map", std::uint32_t(chunk),
+        [=] IRGRID_HD(std::uint32_t j) { return d_block[j].log_dim() != 0; }, next_count);
+    Indices next_roots = exec.template allocate<std::uint32_t>(next_count);
+    std::uint32_t *d_next_roots = next_roots.data(), *d_next_slots = next_slots.data();
+    exec.for_each("flatten map", next_count, [=] IRGRID_HD(std::size_t k) {
+      d_next_roots[k] = d_reached[d_next_slots[k]];
+    });
+    parts.push_back(std::move(block));
+    slots = std::move(next_slots);
+    roots = std::move(next_roots);
+    num_roots = next_count;
+    written += std::uint32_t(chunk);
+  }
+  grid.entries = concatenate<Exec, Entry>(exec, "flatten map", parts, written);
+  grid.info.num_entries = written;
   grid.level_offsets.clear();
 }
 

@@ -27,19 +27,42 @@ inline float insertion_padding(const BoxF& box) {
   return std::fmax(magnitude * 0x1p-17f, 1e-30f);
 }
 
+/// x^k for k in 1..3 with correctly rounded products only (no libm), so host and device agree.
+IRGRID_HD inline double power_of(double x, int k) {
+  return k == 1 ? x : (k == 2 ? x * x : x * x * x);
+}
+
 /// Cleary's resolution for `count` primitives in a box of extents `extent` and density λ:
 /// cells of side s with (product of non-flat extents) / s^k = λ x count, k non-flat axes.
+/// Each axis gets floor(extent / s) cells, computed as the largest integer n with
+/// n^k x s^k <= extent^k: libm's pow only gives the first guess, and the answer is settled by
+/// IEEE products and quotients that every compiler and GPU rounds alike, so the CPU and CUDA
+/// builds choose the same resolutions bit for bit.
 IRGRID_HD inline void cleary_resolution(const Vec3<float>& extent, double density, double count,
                                         float flat, double out[3]) {
   double volume = 1;
   int axes = 0;
   for (int a = 0; a < 3; ++a)
     if (extent[a] > flat) volume *= extent[a], ++axes;
-  const double side = axes == 0 || count <= 0 || density <= 0
-                          ? std::numeric_limits<double>::infinity()
-                          : std::pow(volume / (density * count), 1.0 / axes);
-  for (int a = 0; a < 3; ++a)
-    out[a] = extent[a] > flat ? std::floor(extent[a] / side) : 1.0;
+  const bool none = axes == 0 || !(count > 0) || !(density > 0);
+  const double side_power = none ? 0 : volume / (density * count);  // s^k
+  for (int a = 0; a < 3; ++a) {
+    if (!(extent[a] > flat)) {
+      out[a] = 1.0;
+      continue;
+    }
+    if (none || !(side_power > 0)) {
+      out[a] = 0.0;
+      continue;
+    }
+    const double guess = floor(double(extent[a]) / pow(side_power, 1.0 / axes));
+    // Beyond 2^40 the callers reject the resolution anyway; keep the products finite.
+    double n = fmin(fmax(guess, 0.0), 0x1p40);
+    const double bound = power_of(double(extent[a]), axes);
+    while (n > 0 && power_of(n, axes) * side_power > bound) n -= 1;
+    while (n < 0x1p40 && power_of(n + 1, axes) * side_power <= bound) n += 1;
+    out[a] = n;
+  }
 }
 
 /// Plans the top grid over the triangles' box: fills box, top_dims and padding of the result.

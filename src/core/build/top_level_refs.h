@@ -101,14 +101,18 @@ RefPairs<Exec> emit_top_level_refs(Exec& exec, const TriangleVertices* triangles
 }
 
 /// Octree depth of a top cell holding `count` references: Cleary's resolution with λ2 inside
-/// the cell, rounded up to a power of two.
+/// the cell, rounded up to a power of two (integer arithmetic, identical on host and device).
 IRGRID_HD inline std::int32_t octree_depth(const Vec3<float>& cell_size, float lambda2,
                                            std::uint32_t count, std::int32_t max_depth) {
   double dims[3];
   cleary_resolution(cell_size, lambda2, count, 0.f, dims);
-  const double largest = std::fmax(dims[0], std::fmax(dims[1], dims[2]));
+  const double largest = fmax(dims[0], fmax(dims[1], dims[2]));
   if (!(largest > 1)) return 0;
-  return std::int32_t(std::fmin(std::ceil(std::log2(largest)), double(max_depth)));
+  // ceil(log2(largest)) for an integer largest >= 2: the bit width of largest - 1.
+  std::uint64_t below = std::uint64_t(fmin(largest, 0x1p40)) - 1;
+  std::int32_t depth = 0;
+  while (below != 0) below >>= 1, ++depth;
+  return depth < max_depth ? depth : max_depth;
 }
 
 }  // namespace irgrid

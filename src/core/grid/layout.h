@@ -45,6 +45,29 @@ struct Cell {
 };
 static_assert(sizeof(Cell) == 32 && alignof(Cell) == 4);
 
+/// A compressed cell (the paper's 16-byte cells, §4): the exit box in 16-bit voxel coordinates
+/// and the first reference. The last reference is found as the next cell's begin, so the array
+/// holds one sentinel cell past the last (its begin is the number of references). 16 bytes.
+struct CompactCell {
+  std::uint16_t lo[3];  ///< 6 B exit box, inclusive lower voxel
+  std::uint16_t hi[3];  ///< 6 B exit box, exclusive upper voxel
+  std::uint32_t begin;  ///< 4 B first reference; the end is cells[i + 1].begin
+};
+static_assert(sizeof(CompactCell) == 16 && alignof(CompactCell) == 4);
+
+/// Whether the grid's voxel coordinates fit compressed cells (every exit-box bound < 2^16).
+IRGRID_HD inline bool fits_compact_cells(const GridInfo& info) {
+  return info.virtual_dims[0] <= 0xffff && info.virtual_dims[1] <= 0xffff &&
+         info.virtual_dims[2] <= 0xffff;
+}
+
+/// Cell i in the full layout, from either array.
+IRGRID_HD inline Cell load_cell(const Cell* cells, std::uint32_t i) { return cells[i]; }
+IRGRID_HD inline Cell load_cell(const CompactCell* cells, std::uint32_t i) {
+  const CompactCell c = cells[i];
+  return {{c.lo[0], c.lo[1], c.lo[2]}, c.begin, {c.hi[0], c.hi[1], c.hi[2]}, cells[i + 1].begin};
+}
+
 /// A voxel-map entry, 4 bytes: log_dim in the top 2 bits, a 30-bit index below. log_dim 0: a
 /// leaf, the index is a cell. log_dim k in 1..3: an inner node whose children form a dense
 /// (2^k)^3 block (x fastest) starting at the index.

@@ -20,10 +20,20 @@ namespace irgrid {
 struct GridView {
   GridInfo info;
   const Entry* entries;
-  const Cell* cells;
+  const Cell* cells;                 ///< full cells, or null when the grid is compressed
+  const CompactCell* compact_cells;  ///< compressed cells (num_cells + 1), or null
   const std::uint32_t* refs;
   const TriangleVertices* triangles;
 };
+
+/// The view's cell array of layout CellT (Cell or CompactCell).
+template <typename CellT>
+IRGRID_HD inline const CellT* cell_array(const GridView& grid) {
+  if constexpr (sizeof(CellT) == sizeof(Cell))
+    return grid.cells;
+  else
+    return grid.compact_cells;
+}
 
 /// Work done for one ray, for heat maps and statistics.
 struct TraversalCounters {
@@ -75,7 +85,8 @@ IRGRID_HD inline Voxel next_voxel(const GridInfo& info, const Ray& ray, const Ce
 }
 
 /// Traces one ray. Closest hit: the nearest triangle in [tmin, tmax]; any hit: the first found.
-template <Query kQuery>
+/// CellT picks the cell layout the view holds (Cell or CompactCell); the walk is the same.
+template <Query kQuery, typename CellT = Cell>
 IRGRID_HD inline Hit traverse_grid(const GridView& grid, const Ray& ray,
                                    TraversalCounters* counters = nullptr) {
   Hit best{kNoHit, ray.tmax, 0.f, 0.f};
@@ -87,8 +98,9 @@ IRGRID_HD inline Hit traverse_grid(const GridView& grid, const Ray& ray,
   Voxel voxel;
   for (int a = 0; a < 3; ++a)
     voxel[a] = world_to_voxel(grid.info, a, ray.org[a] + t_enter * ray.dir[a]);
+  const CellT* cells = cell_array<CellT>(grid);
   while (true) {
-    const Cell cell = grid.cells[lookup_cell(grid.info, grid.entries, voxel)];
+    const Cell cell = load_cell(cells, lookup_cell(grid.info, grid.entries, voxel));
     if (counters) ++counters->cells;
     float t_exit = t_leave;
     float t_axis[3];
