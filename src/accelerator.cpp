@@ -67,11 +67,11 @@ std::unique_ptr<Accelerator> make_accelerator(const Scene& scene, const std::str
       {"two-level", BuildConfig::Shape::two_level},
       {"uniform", BuildConfig::Shape::uniform}};
   if (const auto grid = grids.find(structure); grid != grids.end()) {
-    if (backend == "cuda" && options.backend == "cuda")
-      throw Error(ErrorCode::invalid_argument,
-                  fmt::format("structure '{}' has no CUDA backend yet", structure));
     BuildConfig config = options.grid;
     config.shape = grid->second;
+#if IRGRID_HAS_CUDA
+    if (backend == "cuda") return make_grid_cuda(scene, config);
+#endif
     return make_grid_cpu(scene, config);
   }
 #if IRGRID_HAS_EMBREE

@@ -5,27 +5,37 @@
 #include <utility>
 
 #include "cuda/check.cuh"
+#include "cuda/device_pool.cuh"
 
 namespace irgrid::cuda {
 
+/// n elements of T in device memory, from cudaMalloc or, when given one, from a DevicePool
+/// (which must outlive the buffer). Contents start unspecified.
 template <typename T>
 class DeviceBuffer {
  public:
   DeviceBuffer() = default;
-  explicit DeviceBuffer(std::size_t count, const char* what) : count_(count) {
+  DeviceBuffer(std::size_t count, const char* what, DevicePool* pool = nullptr,
+               cudaStream_t stream = nullptr)
+      : count_(count), pool_(pool) {
     if (count == 0) return;
+    if (pool) {
+      data_ = static_cast<T*>(pool->allocate(count * sizeof(T), what, stream));
+      return;
+    }
     const cudaError_t result = cudaMalloc(&data_, count * sizeof(T));
     if (result == cudaErrorMemoryAllocation) throw_allocation_error(count * sizeof(T), what);
     check(result, what, __FILE__, __LINE__);
   }
-  ~DeviceBuffer() {
-    if (data_) cudaFree(data_);
-  }
+  ~DeviceBuffer() { reset(); }
   DeviceBuffer(DeviceBuffer&& other) noexcept
-      : data_(std::exchange(other.data_, nullptr)), count_(std::exchange(other.count_, 0)) {}
+      : data_(std::exchange(other.data_, nullptr)),
+        count_(std::exchange(other.count_, 0)),
+        pool_(std::exchange(other.pool_, nullptr)) {}
   DeviceBuffer& operator=(DeviceBuffer&& other) noexcept {
     std::swap(data_, other.data_);
     std::swap(count_, other.count_);
+    std::swap(pool_, other.pool_);
     return *this;
   }
   DeviceBuffer(const DeviceBuffer&) = delete;
@@ -33,6 +43,19 @@ class DeviceBuffer {
 
   T* data() const { return data_; }
   std::size_t size() const { return count_; }
+  bool empty() const { return count_ == 0; }
+
+  /// Frees the memory (back to the pool when it came from one).
+  void reset() noexcept {
+    if (data_) {
+      if (pool_)
+        pool_->release(data_, count_ * sizeof(T));
+      else
+        cudaFree(data_);
+    }
+    data_ = nullptr;
+    count_ = 0;
+  }
 
   /// Copies `count` elements from the host; count must not exceed size().
   void upload(const T* host, std::size_t count) {
@@ -45,6 +68,7 @@ class DeviceBuffer {
  private:
   T* data_ = nullptr;
   std::size_t count_ = 0;
+  DevicePool* pool_ = nullptr;
 };
 
 }  // namespace irgrid::cuda

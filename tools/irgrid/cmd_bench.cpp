@@ -11,6 +11,7 @@
 #include "irgrid/camera.h"
 #include "irgrid/error.h"
 #include "irgrid/rays.h"
+#include "irgrid/system.h"
 #include "irgrid/validate.h"
 
 namespace irgrid::cli {
@@ -45,6 +46,13 @@ std::vector<Contender> parse_contenders(const BenchOptions& o) {
   if (names.size() == 1 && names.front() == "all") {  // every structure built in but brute force
     names = available_structures();
     names.erase(std::find(names.begin(), names.end(), "brute"));
+    // With a GPU visible (and --backend auto or cuda), the GPU grid leads and the rest run on
+    // the CPU, so one command compares both backends.
+    if (o.structure.backend != "cpu" && !cuda_status().gpus.empty()) {
+      for (auto& name : names)
+        name += "@cpu";
+      names.insert(names.begin(), default_structure() + "@cuda");
+    }
   }
   if (names.empty())
     names.push_back(o.structure.structure.empty() ? default_structure() : o.structure.structure);

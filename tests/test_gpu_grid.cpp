@@ -1,0 +1,168 @@
+// The CUDA grid equals the CPU grid array for array, bit for bit, and traces the same hits
+// (label gpu: every test skips without a device).
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+
+#include "core/build/compress_cells.h"
+#include "core/build/grid_statistics.h"
+#include "grid_test_support.h"
+#include "irgrid/accelerator.h"
+#include "irgrid/camera.h"
+#include "irgrid/rays.h"
+#include "irgrid/system.h"
+#if IRGRID_HAS_CUDA
+#include "cuda/grid_cuda.h"
+#endif
+
+namespace irgrid {
+namespace {
+
+bool gpu_missing() {
+  static const CudaStatus cuda = cuda_status();
+  return cuda.gpus.empty();
+}
+
+#define IRGRID_SKIP_WITHOUT_GPU() \
+  if (gpu_missing()) GTEST_SKIP() << "no GPU: " << cuda_status().status
+
+/// Shared scenes: $IRGRID_SHARED_SCENES (a bundle on another machine), else the build's path.
+std::vector<std::string> shared_scene_paths() {
+  const char* env = std::getenv("IRGRID_SHARED_SCENES");
+  const std::filesystem::path root = env ? env : IRGRID_SHARED_SCENES;
+  std::vector<std::string> paths;
+  for (const char* file : {"crytek-sponza/sponza.obj.xz", "conference/conference.obj.xz",
+                           "crown/crown.obj.xz"})
+    if (std::filesystem::exists(root / file)) paths.push_back((root / file).string());
+  return paths;
+}
+
+const std::vector<std::string> kBuiltins = {"builtin:cornell", "builtin:teapot-stadium:4000",
+                                            "builtin:soup:3000", "builtin:hairball:5000",
+                                            "builtin:sphere:2000", "builtin:cube"};
+
+template <typename T, typename Buffer>
+void expect_same_array(const std::vector<T>& gpu, const Buffer& cpu, const std::string& what) {
+  ASSERT_EQ(gpu.size(), cpu.size()) << what;
+  EXPECT_EQ(std::memcmp(gpu.data(), cpu.data(), gpu.size() * sizeof(T)), 0) << what;
+}
+
+#if IRGRID_HAS_CUDA
+void expect_same_grid(const Scene& scene, const BuildConfig& config, const std::string& what) {
+  const auto cpu = testing::build_test_grid(scene, config);
+  const HostGridArrays gpu = build_grid_cuda_arrays(scene, config, 1);
+  EXPECT_EQ(std::memcmp(&gpu.info, &cpu.info, sizeof(GridInfo)), 0) << what << ": GridInfo";
+  expect_same_array(gpu.entries, cpu.entries, what + ": voxel map");
+  expect_same_array(gpu.cells, cpu.cells, what + ": cells");
+  expect_same_array(gpu.refs, cpu.refs, what + ": references");
+  if (config.compress && fits_compact_cells(cpu.info)) {
+    CpuExecutor exec;
+    CpuExecutor::Buffer<CompactCell> compact;
+    compress_cells(exec, cpu, compact);
+    expect_same_array(gpu.compact_cells, compact, what + ": compressed cells");
+  }
+}
+#endif
+
+TEST(GpuGrid, SameArraysAsTheCpuOnBuiltinScenes) {
+  IRGRID_SKIP_WITHOUT_GPU();
+#if IRGRID_HAS_CUDA
+  for (const auto& spec : kBuiltins) {
+    const Scene scene = load_scene(spec);
+    for (auto shape : {BuildConfig::Shape::irregular, BuildConfig::Shape::two_level,
+                       BuildConfig::Shape::uniform}) {
+      BuildConfig config;
+      config.shape = shape;
+      expect_same_grid(scene, config, spec + " " + grid_shape_name(shape));
+    }
+    expect_same_grid(scene, testing::initial_grid_config(), spec + " initial grid");
+  }
+#endif
+}
+
+TEST(GpuGrid, SameArraysAsTheCpuOnSharedScenes) {
+  IRGRID_SKIP_WITHOUT_GPU();
+  const auto paths = shared_scene_paths();
+  if (paths.empty()) GTEST_SKIP() << "no shared scenes found";
+#if IRGRID_HAS_CUDA
+  for (const auto& path : paths) expect_same_grid(load_scene(path), BuildConfig{}, path);
+#endif
+}
+
+TEST(GpuGrid, RebuildsAreIdenticalAndAllocateNothing) {
+  IRGRID_SKIP_WITHOUT_GPU();
+#if IRGRID_HAS_CUDA
+  const Scene scene = load_scene("builtin:teapot-stadium:4000");
+  const HostGridArrays once = build_grid_cuda_arrays(scene, BuildConfig{}, 1);
+  const HostGridArrays thrice = build_grid_cuda_arrays(scene, BuildConfig{}, 3);
+  EXPECT_EQ(thrice.fresh_allocations_last_build, 0u);
+  EXPECT_EQ(std::memcmp(&once.info, &thrice.info, sizeof(GridInfo)), 0);
+  expect_same_array(once.entries, thrice.entries, "voxel map");
+  expect_same_array(once.cells, thrice.cells, "cells");
+  expect_same_array(once.refs, thrice.refs, "references");
+#endif
+}
+
+/// The same rays on both backends give the same hits bit for bit, and the same work counts.
+void expect_same_hits(const Scene& scene, const std::string& structure, const std::string& what) {
+  AcceleratorOptions gpu_options;
+  gpu_options.backend = "cuda";
+  const auto gpu = make_accelerator(scene, structure, gpu_options);
+  const auto cpu = make_accelerator(scene, structure);
+  ASSERT_EQ(gpu->backend(), "cuda");
+  // The same grid: every count but the peak build memory (host bytes vs device bytes).
+  auto gpu_counts = gpu->build_info().counts, cpu_counts = cpu->build_info().counts;
+  gpu_counts.erase("peak_build_bytes");
+  cpu_counts.erase("peak_build_bytes");
+  EXPECT_EQ(gpu_counts, cpu_counts) << what;
+  RayConfig config;
+  config.width = 128, config.height = 128, config.spp = 2, config.count = 20000;
+  const auto views = scene_views(scene);
+  for (std::size_t v = 0; v < views.size(); ++v)
+    for (RayKind kind : {RayKind::primary, RayKind::ao, RayKind::diffuse, RayKind::random}) {
+      const auto rays = generate_rays(scene, views[v], kind, config, cpu.get());
+      const Query query = kind == RayKind::ao ? Query::any : Query::closest;
+      std::vector<Hit> gpu_hits(rays.size()), cpu_hits(rays.size());
+      std::vector<RayWork> gpu_work(rays.size()), cpu_work(rays.size());
+      gpu->trace_counted(rays, gpu_hits, gpu_work, query);
+      cpu->trace_counted(rays, cpu_hits, cpu_work, query);
+      EXPECT_EQ(std::memcmp(gpu_hits.data(), cpu_hits.data(), rays.size() * sizeof(Hit)), 0)
+          << what << " view " << v << " " << to_string(kind);
+      EXPECT_EQ(std::memcmp(gpu_work.data(), cpu_work.data(), rays.size() * sizeof(RayWork)), 0)
+          << what << " view " << v << " " << to_string(kind) << ": work counters";
+      gpu->trace(rays, gpu_hits, query);
+      EXPECT_EQ(std::memcmp(gpu_hits.data(), cpu_hits.data(), rays.size() * sizeof(Hit)), 0)
+          << what << " view " << v << " " << to_string(kind) << " (uncounted)";
+    }
+}
+
+TEST(GpuGrid, SameHitsAsTheCpuOnBuiltinScenes) {
+  IRGRID_SKIP_WITHOUT_GPU();
+  for (const auto& spec : kBuiltins)
+    for (const char* structure : {"irregular", "two-level", "uniform"})
+      expect_same_hits(load_scene(spec), structure, spec + " " + structure);
+}
+
+TEST(GpuGrid, SameHitsAsTheCpuOnSharedScenes) {
+  IRGRID_SKIP_WITHOUT_GPU();
+  const auto paths = shared_scene_paths();
+  if (paths.empty()) GTEST_SKIP() << "no shared scenes found";
+  for (const auto& path : paths) expect_same_hits(load_scene(path), "irregular", path);
+}
+
+TEST(GpuGrid, CudaWithoutDeviceIsAClearError) {
+  if (!gpu_missing()) GTEST_SKIP() << "a GPU is present";
+  AcceleratorOptions options;
+  options.backend = "cuda";
+  try {
+    make_accelerator(load_scene("builtin:cube"), "irregular", options);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ErrorCode::no_device);
+  }
+}
+
+}  // namespace
+}  // namespace irgrid
