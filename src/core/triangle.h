@@ -18,10 +18,10 @@ struct BoxF {
 };
 
 IRGRID_HD inline float min3(float a, float b, float c) {
-  return fminf(a, fminf(b, c));
+  return min_fast(a, min_fast(b, c));
 }
 IRGRID_HD inline float max3(float a, float b, float c) {
-  return fmaxf(a, fmaxf(b, c));
+  return max_fast(a, max_fast(b, c));
 }
 
 IRGRID_HD inline BoxF triangle_box(const TriangleVertices& t) {
@@ -31,8 +31,8 @@ IRGRID_HD inline BoxF triangle_box(const TriangleVertices& t) {
 }
 
 IRGRID_HD inline BoxF box_union(const BoxF& a, const BoxF& b) {
-  return {{fminf(a.lo.x, b.lo.x), fminf(a.lo.y, b.lo.y), fminf(a.lo.z, b.lo.z)},
-          {fmaxf(a.hi.x, b.hi.x), fmaxf(a.hi.y, b.hi.y), fmaxf(a.hi.z, b.hi.z)}};
+  return {{min_fast(a.lo.x, b.lo.x), min_fast(a.lo.y, b.lo.y), min_fast(a.lo.z, b.lo.z)},
+          {max_fast(a.hi.x, b.hi.x), max_fast(a.hi.y, b.hi.y), max_fast(a.hi.z, b.hi.z)}};
 }
 
 /// Whether p lies in [lo - padding, hi + padding] on every axis.

@@ -32,9 +32,9 @@ IRGRID_HD void for_each_top_cell_overlapped(const GridInfo& info, const Vec3<flo
   for (int a = 0; a < 3; ++a) {
     const float inv = 1.0f / top_size[a], last = float(info.top_dims[a] - 1);
     lo[a] = std::int32_t(
-        fminf(fmaxf(floorf((box.lo[a] - info.padding - info.box_lo[a]) * inv), 0.f), last));
+        min_fast(max_fast(floorf((box.lo[a] - info.padding - info.box_lo[a]) * inv), 0.f), last));
     hi[a] = std::int32_t(
-        fminf(fmaxf(floorf((box.hi[a] + info.padding - info.box_lo[a]) * inv), 0.f), last));
+        min_fast(max_fast(floorf((box.hi[a] + info.padding - info.box_lo[a]) * inv), 0.f), last));
   }
   for (std::int32_t z = lo[2]; z <= hi[2]; ++z)
     for (std::int32_t y = lo[1]; y <= hi[1]; ++y)

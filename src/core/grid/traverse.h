@@ -59,8 +59,8 @@ IRGRID_HD inline void clip_to_grid(const GridInfo& info, const Ray& ray, const V
       t0 = t1;
       t1 = swap;
     }
-    t_enter = fmaxf(t_enter, t0);
-    t_leave = fminf(t_leave, t1);
+    t_enter = max_fast(t0, t_enter);  // a NaN (0 x inf on a plane through the origin) is skipped
+    t_leave = min_fast(t1, t_leave);
   }
 }
 
@@ -110,7 +110,7 @@ IRGRID_HD inline Hit traverse_grid(const GridView& grid, const Ray& ray,
           d == 0.f ? t_leave
                    : (voxel_to_world(grid.info, a, d > 0 ? cell.hi[a] : cell.lo[a]) - ray.org[a]) *
                          inv_dir[a];
-      t_exit = fminf(t_exit, t_axis[a]);
+      t_exit = min_fast(t_axis[a], t_exit);
     }
     TriangleHit<float> hit;
     for (std::uint32_t r = cell.begin; r < cell.end; ++r) {
