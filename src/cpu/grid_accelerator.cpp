@@ -7,24 +7,25 @@
 
 #include "core/build/build_grid.h"
 #include "core/build/compress_cells.h"
-#include "core/build/grid_statistics.h"
 #include "core/grid/traverse.h"
 #include "cpu/cpu_executor.h"
 #include "cpu/structures.h"
+#include "grid_accelerator_base.h"
 #include "irgrid/error.h"
 
 namespace irgrid {
 namespace {
 
-class GridCpu final : public Accelerator {
+class GridCpu final : public GridAcceleratorBase {
  public:
-  GridCpu(const Scene& scene, const BuildConfig& config) : name_(grid_shape_name(config.shape)) {
+  GridCpu(const Scene& scene, const BuildConfig& config) : GridAcceleratorBase(config) {
     const auto start = std::chrono::steady_clock::now();
     CpuExecutor exec;
     MemoryMeter::reset_peak();
     const std::int64_t before = MemoryMeter::current();
     gather_triangles(scene, grid_.triangles);
-    if (!grid_.triangles.empty()) {
+    empty_scene_ = grid_.triangles.empty();
+    if (!empty_scene_) {
       build_grid(exec, grid_, config, info_.phases_ms);
       if (config.compress && fits_compact_cells(grid_.info)) {
         PhaseClock clock(exec, info_.phases_ms);
@@ -39,38 +40,13 @@ class GridCpu final : public Accelerator {
     info_.counts["peak_build_bytes"] = std::uint64_t(MemoryMeter::peak() - before);
   }
 
-  std::string structure() const override { return name_; }
   std::string backend() const override { return "cpu"; }
-  const BuildInfo& build_info() const override { return info_; }
-
-  void trace(std::span<const Ray> rays, std::span<Hit> hits, Query query) const override {
-    check_trace_spans(rays, hits);
-    trace_all(rays, hits, {}, query);
-  }
-
-  void trace_counted(std::span<const Ray> rays, std::span<Hit> hits, std::span<RayWork> work,
-                     Query query) const override {
-    check_trace_spans(rays, hits);
-    if (work.size() != rays.size())
-      throw Error(ErrorCode::invalid_argument, "trace_counted: one RayWork per ray expected");
-    trace_all(rays, hits, work, query);
-  }
 
  private:
-  GridView view() const {
-    return {grid_.info,        grid_.entries.data(), grid_.cells.data(), compact_cells_.data(),
-            grid_.refs.data(), grid_.triangles.data()};
-  }
+  GridView view() const { return grid_view(grid_, compact_cells_.data()); }
 
-  /// Traces every ray with the traversal instantiated for this grid's cell layout and the query;
-  /// counts work when `work` is not empty.
-  void trace_all(std::span<const Ray> rays, std::span<Hit> hits, std::span<RayWork> work,
-                 Query query) const {
-    if (grid_.triangles.empty()) {
-      std::fill(hits.begin(), hits.end(), Hit{});
-      std::fill(work.begin(), work.end(), RayWork{});
-      return;
-    }
+  void trace_grid(std::span<const Ray> rays, std::span<Hit> hits, std::span<RayWork> work,
+                  Query query) const override {
     if (!compact_cells_.empty())
       trace_layout<CompactCell>(rays, hits, work, query);
     else
@@ -103,10 +79,8 @@ class GridCpu final : public Accelerator {
     });
   }
 
-  std::string name_;
   GridArrays<CpuExecutor> grid_;
   CpuExecutor::Buffer<CompactCell> compact_cells_;
-  BuildInfo info_;
 };
 
 }  // namespace

@@ -5,11 +5,11 @@
 
 #include "core/build/build_grid.h"
 #include "core/build/compress_cells.h"
-#include "core/build/grid_statistics.h"
 #include "core/grid/traverse.h"
 #include "cpu/structures.h"
 #include "cuda/cuda_executor.cuh"
 #include "cuda/grid_cuda.h"
+#include "grid_accelerator_base.h"
 
 namespace irgrid {
 namespace {
@@ -63,13 +63,14 @@ std::vector<T> to_host(const cuda::DeviceBuffer<T>& buffer) {
   return host;
 }
 
-class GridCuda final : public Accelerator {
+class GridCuda final : public GridAcceleratorBase {
  public:
-  GridCuda(const Scene& scene, const BuildConfig& config) : name_(grid_shape_name(config.shape)) {
+  GridCuda(const Scene& scene, const BuildConfig& config) : GridAcceleratorBase(config) {
     const auto start = std::chrono::steady_clock::now();
     grid_.triangles = upload_triangles(exec_, scene);
     exec_.pool().reset_peak();
-    if (!grid_.triangles.empty()) {
+    empty_scene_ = grid_.triangles.empty();
+    if (!empty_scene_) {
       build_on_device(exec_, grid_, compact_cells_, config, info_.phases_ms);
       if (!compact_cells_.empty()) grid_.cells.reset();
     }
@@ -80,39 +81,15 @@ class GridCuda final : public Accelerator {
     info_.counts["peak_build_bytes"] = exec_.pool().peak();
   }
 
-  std::string structure() const override { return name_; }
   std::string backend() const override { return "cuda"; }
-  const BuildInfo& build_info() const override { return info_; }
-
-  void trace(std::span<const Ray> rays, std::span<Hit> hits, Query query) const override {
-    check_trace_spans(rays, hits);
-    trace_all(rays, hits, {}, query);
-  }
-
-  void trace_counted(std::span<const Ray> rays, std::span<Hit> hits, std::span<RayWork> work,
-                     Query query) const override {
-    check_trace_spans(rays, hits);
-    if (work.size() != rays.size())
-      throw Error(ErrorCode::invalid_argument, "trace_counted: one RayWork per ray expected");
-    trace_all(rays, hits, work, query);
-  }
 
  private:
-  GridView view() const {
-    return {grid_.info,        grid_.entries.data(), grid_.cells.data(), compact_cells_.data(),
-            grid_.refs.data(), grid_.triangles.data()};
-  }
+  GridView view() const { return grid_view(grid_, compact_cells_.data()); }
 
   /// Uploads the rays, runs the kernel for this grid's cell layout and query, downloads the
   /// hits. One batch at a time: the staging buffers are shared, so callers are serialised.
-  void trace_all(std::span<const Ray> rays, std::span<Hit> hits, std::span<RayWork> work,
-                 Query query) const {
-    if (rays.empty()) return;
-    if (grid_.triangles.empty()) {
-      std::fill(hits.begin(), hits.end(), Hit{});
-      std::fill(work.begin(), work.end(), RayWork{});
-      return;
-    }
+  void trace_grid(std::span<const Ray> rays, std::span<Hit> hits, std::span<RayWork> work,
+                  Query query) const override {
     const std::lock_guard lock(mutex_);
     reserve(rays_, rays.size(), "rays");
     reserve(hits_, rays.size(), "hits");
@@ -154,11 +131,9 @@ class GridCuda final : public Accelerator {
     }
   }
 
-  std::string name_;
   CudaExecutor exec_;  // first: its memory pool must outlive every buffer below
   GridArrays<CudaExecutor> grid_;
   CudaExecutor::Buffer<CompactCell> compact_cells_;
-  BuildInfo info_;
   mutable std::mutex mutex_;
   mutable cuda::DeviceBuffer<Ray> rays_;
   mutable cuda::DeviceBuffer<Hit> hits_;
