@@ -38,8 +38,6 @@ std::string default_structure() {
   return available_structures().front();
 }
 
-namespace {
-
 std::string resolve_backend(const std::string& backend) {
   if (backend == "cpu") return backend;
   if (backend != "cuda" && backend != "auto")
@@ -50,8 +48,6 @@ std::string resolve_backend(const std::string& backend) {
   if (backend == "auto") return "cpu";
   throw Error(ErrorCode::no_device, fmt::format("backend cuda: {}", cuda.status));
 }
-
-}  // namespace
 
 std::unique_ptr<Accelerator> make_accelerator(const Scene& scene, const std::string& structure,
                                               const AcceleratorOptions& options) {

@@ -89,6 +89,18 @@ TEST_F(Cli, BadOptionValuesAreExitTwo) {
   EXPECT_EQ(run("--help").code, 0);
 }
 
+TEST_F(Cli, UnknownOrUnavailableBackendIsExitTwoBeforeLoading) {
+  const Result unknown = run("build builtin:cube --backend gpu");
+  EXPECT_EQ(unknown.code, 2);
+  EXPECT_NE(unknown.err.find("unknown backend 'gpu'"), std::string::npos) << unknown.err;
+  const Result cuda = run("build builtin:cube --backend cuda");
+  if (cuda.code == 0) GTEST_SKIP() << "a GPU is visible";
+  EXPECT_EQ(cuda.code, 2);
+  EXPECT_NE(cuda.err.find("no device"), std::string::npos) << cuda.err;
+  EXPECT_EQ(cuda.err.find("loaded"), std::string::npos) << "the scene was loaded first";
+  EXPECT_EQ(run("build builtin:cube --backend auto").code, 0);
+}
+
 TEST_F(Cli, RaysThenTraceWritesOneHitPerRay) {
   const auto rays = (dir / "cornell.rays").string(), hits = (dir / "cornell.hits").string();
   auto r = run("rays builtin:cornell --kind primary -w 20 -h 10 -o " + rays);

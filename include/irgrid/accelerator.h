@@ -60,6 +60,11 @@ struct AcceleratorOptions {
 std::unique_ptr<Accelerator> make_accelerator(const Scene& scene, const std::string& structure,
                                               const AcceleratorOptions& options = {});
 
+/// The backend that `backend` ("cpu", "cuda" or "auto") runs on: "cpu" or "cuda". Throws
+/// Error{no_device} (with the reason: no driver, driver too old, no GPU) for "cuda" without a
+/// usable GPU, Error{invalid_argument} for other names.
+std::string resolve_backend(const std::string& backend);
+
 /// Structures compiled into this build, fastest first.
 std::vector<std::string> available_structures();
 

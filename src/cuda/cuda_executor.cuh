@@ -91,7 +91,7 @@ class CudaExecutor {
     std::size_t bytes = 0;
     cuda::check(cub::DeviceScan::ExclusiveSum(nullptr, bytes, in, out, n, stream_), name,
                 __FILE__, __LINE__);
-    const auto scratch = allocate<std::uint8_t>(bytes);
+    const auto scratch = scratch_for(bytes);
     cuda::check(cub::DeviceScan::ExclusiveSum(scratch.data(), bytes, in, out, n, stream_), name,
                 __FILE__, __LINE__);
     T last_out{};
@@ -112,7 +112,7 @@ class CudaExecutor {
     std::size_t bytes = 0;
     cuda::check(cub::DeviceReduce::Reduce(nullptr, bytes, items, result.data(), n, op, init, stream_),
                 name, __FILE__, __LINE__);
-    const auto scratch = allocate<std::uint8_t>(bytes);
+    const auto scratch = scratch_for(bytes);
     cuda::check(cub::DeviceReduce::Reduce(scratch.data(), bytes, items, result.data(), n, op, init,
                                           stream_),
                 name, __FILE__, __LINE__);
@@ -136,7 +136,7 @@ class CudaExecutor {
     cuda::check(cub::DeviceRadixSort::SortPairs(nullptr, bytes, keys, keys_out.data(), values,
                                                 values_out.data(), n, 0, key_bits, stream_),
                 name, __FILE__, __LINE__);
-    const auto scratch = allocate<std::uint8_t>(bytes);
+    const auto scratch = scratch_for(bytes);
     cuda::check(cub::DeviceRadixSort::SortPairs(scratch.data(), bytes, keys, keys_out.data(),
                                                 values, values_out.data(), n, 0, key_bits,
                                                 stream_),
@@ -163,7 +163,7 @@ class CudaExecutor {
     cuda::check(cub::DeviceSelect::Flagged(nullptr, bytes, in, flags.data(), out, selected.data(),
                                            n, stream_),
                 name, __FILE__, __LINE__);
-    const auto scratch = allocate<std::uint8_t>(bytes);
+    const auto scratch = scratch_for(bytes);
     cuda::check(cub::DeviceSelect::Flagged(scratch.data(), bytes, in, flags.data(), out,
                                            selected.data(), n, stream_),
                 name, __FILE__, __LINE__);
@@ -187,6 +187,12 @@ class CudaExecutor {
 
  private:
   static constexpr unsigned kThreads = 256;
+
+  /// CUB's temporary storage. Never empty: a null pointer would make the next CUB call a size
+  /// query that does no work.
+  Buffer<std::uint8_t> scratch_for(std::size_t bytes) const {
+    return allocate<std::uint8_t>(bytes > 0 ? bytes : 1);
+  }
 
   /// Copies one value to the host, waiting for the stream (and surfacing kernel errors).
   template <typename T>

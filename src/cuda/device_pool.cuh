@@ -13,11 +13,13 @@
 
 namespace irgrid::cuda {
 
-/// Device memory arena with statistics. Sizes round up to powers of two (from 256 B), so a
-/// block freed by one phase serves any request of its size class later.
+/// Device memory arena with statistics. Sizes round up to powers of two from 256 B to 2 GiB, so
+/// a block freed by one phase serves any request of its size class later; larger requests go to
+/// the driver each time.
 class DevicePool {
  public:
-  DevicePool() : allocator_(2u, 8u, 40u, kUnlimited) {}
+  // Bins 2^8 .. 2^31: CUB computes the largest bin size in `unsigned int`, so 2^31 is the top.
+  DevicePool() : allocator_(2u, 8u, 31u, kUnlimited) {}
   DevicePool(const DevicePool&) = delete;
   DevicePool& operator=(const DevicePool&) = delete;
 

@@ -33,7 +33,10 @@ Scene load_scene_reporting(const std::string& spec) {
 void add_structure_options(CLI::App* command, StructureOptions& options) {
   command->add_option("--structure", options.structure,
                       "irregular (default), embree, two-level, uniform or brute");
-  command->add_option("--backend", options.backend, "cpu, cuda or auto")->capture_default_str();
+  // Checked while parsing, so a missing GPU is reported before a large scene is loaded.
+  command->add_option("--backend", options.backend, "cpu, cuda or auto")
+      ->capture_default_str()
+      ->each([](const std::string& backend) { resolve_backend(backend); });
   BuildConfig& grid = options.grid;
   command->add_option("--lambda1", grid.lambda1, "Top-level density")
       ->capture_default_str()
