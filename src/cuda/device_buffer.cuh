@@ -57,9 +57,19 @@ class DeviceBuffer {
     count_ = 0;
   }
 
-  /// Copies `count` elements from the host; count must not exceed size().
+  /// Copies `count` elements from the host; count must not exceed size(). The copy runs on the
+  /// legacy default stream: a pageable copy may return before the data reached the device, so
+  /// work on other streams must wait for that stream (or use the overload below).
   void upload(const T* host, std::size_t count) {
     IRGRID_CUDA_CHECK(cudaMemcpy(data_, host, count * sizeof(T), cudaMemcpyHostToDevice));
+  }
+  /// Copies `count` elements from the host in `stream` order and waits for the copy, so work
+  /// enqueued on `stream` afterwards sees the data and `host` may be freed on return.
+  void upload(const T* host, std::size_t count, cudaStream_t stream) {
+    if (count == 0) return;
+    IRGRID_CUDA_CHECK(
+        cudaMemcpyAsync(data_, host, count * sizeof(T), cudaMemcpyHostToDevice, stream));
+    IRGRID_CUDA_CHECK(cudaStreamSynchronize(stream));
   }
   void download(T* host, std::size_t count) const {
     IRGRID_CUDA_CHECK(cudaMemcpy(host, data_, count * sizeof(T), cudaMemcpyDeviceToHost));

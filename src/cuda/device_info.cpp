@@ -67,6 +67,7 @@ CudaStatus cuda_status() {
     status.gpus.push_back(gpu);
   }
   if (count > 0) cudaSetDevice(0);
+  cudaGetLastError();  // a failed probe must not be reported later by an unrelated call
   status.status = fmt::format("driver CUDA {}.{}, runtime {}.{}", driver / 1000, driver % 1000 / 10,
                               runtime / 1000, runtime % 1000 / 10);
   return status;

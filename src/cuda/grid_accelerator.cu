@@ -51,11 +51,9 @@ CudaExecutor::Buffer<TriangleVertices> upload_triangles(const CudaExecutor& exec
                                                         const Scene& scene) {
   std::vector<TriangleVertices> host;
   gather_triangles(scene, host);
-  // The copy below runs outside the executor's stream: let that stream's earlier work on a
-  // recycled block finish first.
-  exec.synchronize();
   auto device = exec.allocate<TriangleVertices>(host.size());
-  device.upload(host.data(), host.size());
+  // On the executor's stream: after its earlier work on a recycled block, before the build.
+  device.upload(host.data(), host.size(), exec.stream());
   return device;
 }
 

@@ -127,6 +127,15 @@ LevelPlan<Exec> plan_level(Exec& exec, const LevelNodes<Exec>& nodes, const RefP
     child_base[i] = splits ? 8 : 0;
     leaf_index[i] = splits ? 0 : 1;
   });
+  // Totals in 64 bits before the 32-bit scans, so an overflow is an error, not a wrap.
+  const std::uint64_t children = exec.transform_reduce(
+      "level children", n, std::uint64_t(0),
+      [] IRGRID_HD(std::uint64_t a, std::uint64_t b) { return a + b; },
+      [=] IRGRID_HD(std::size_t i) { return std::uint64_t(child_base[i]); });
+  if (children > kMaxEntryTarget)
+    throw Error(ErrorCode::limit_exceeded,
+                "voxel map: " + std::to_string(children) +
+                    " octree nodes exceed the limit of 2^30 - 1 entries (lower lambda2)");
   plan.children = exec.exclusive_scan("level children", child_base, child_base, n);
   plan.leaves = exec.exclusive_scan("level leaves", leaf_index, leaf_index, n);
   return plan;
@@ -223,8 +232,12 @@ std::pair<LevelNodes<Exec>, RefPairs<Exec>> split_level(Exec& exec, const GridIn
     d_masks[k] = child_overlap_mask(info, lo[node[i]], half, triangles[tri[i]]);
     d_offsets[k] = std::uint32_t(std::popcount(d_masks[k]));
   });
+  check_reference_count(
+      exec.transform_reduce("split offsets", selected, std::uint64_t(0),
+                            [] IRGRID_HD(std::uint64_t a, std::uint64_t b) { return a + b; },
+                            [=] IRGRID_HD(std::size_t k) { return std::uint64_t(d_offsets[k]); }),
+      "octree references");
   const std::uint32_t total = exec.exclusive_scan("split offsets", d_offsets, d_offsets, selected);
-  check_reference_count(std::uint64_t(total), "octree references");
   RefPairs<Exec> child_pairs{exec.template allocate<std::uint32_t>(total),
                              exec.template allocate<std::uint32_t>(total), total};
   std::uint32_t *cell_out = child_pairs.cell.data(), *tri_out = child_pairs.tri.data();
