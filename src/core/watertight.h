@@ -26,14 +26,14 @@ IRGRID_HD inline T difference_of_products(T a, T b, T c, T d) {
 #endif
 }
 
-/// Per-ray constants of the watertight test. The shear of the paper (x' = x[kx] - sx x[kz],
-/// y' = x[ky] - sy x[kz], z' = sz x[kz]) is stored as three rows so that applying it is three
-/// dot products with no data-dependent indexing; each row has a one, a shear factor and an
-/// exact zero, so every transformed coordinate is rounded exactly as in the paper.
+/// Per-ray constants of the watertight test, as in the paper: the axis kz where the direction
+/// is largest, kx and ky the other two (swapped to keep the winding), and the shear
+/// x' = x[kx] - sx x[kz], y' = x[ky] - sy x[kz], z' = sz x[kz].
 template <typename T>
 struct WatertightRay {
   Vec3<T> org;
-  Vec3<T> row_x, row_y, row_z;
+  int kx, ky, kz;
+  T sx, sy, sz;
   T tmin, tmax;
 };
 
@@ -44,23 +44,34 @@ IRGRID_HD inline WatertightRay<T> make_watertight_ray(const Ray& ray) {
   const Vec3<T> dir = Vec3<T>::from(ray.dir);
   const T ax = dir.x < 0 ? -dir.x : dir.x, ay = dir.y < 0 ? -dir.y : dir.y;
   const T az = dir.z < 0 ? -dir.z : dir.z;
-  const int kz = (ax >= ay && ax >= az) ? 0 : (ay >= az ? 1 : 2);
-  int kx = kz == 2 ? 0 : kz + 1;
-  int ky = kx == 2 ? 0 : kx + 1;
-  if (dir[kz] < 0) {  // keep the winding, so the sign of the edge functions means the same
-    const int swap = kx;
-    kx = ky;
-    ky = swap;
+  r.kz = (ax >= ay && ax >= az) ? 0 : (ay >= az ? 1 : 2);
+  r.kx = r.kz == 2 ? 0 : r.kz + 1;
+  r.ky = r.kx == 2 ? 0 : r.kx + 1;
+  if (dir[r.kz] < 0) {  // keep the winding, so the sign of the edge functions means the same
+    const int swap = r.kx;
+    r.kx = r.ky;
+    r.ky = swap;
   }
-  r.row_x = r.row_y = r.row_z = Vec3<T>{0, 0, 0};
-  r.row_x[kx] = T(1);
-  r.row_x[kz] = -(dir[kx] / dir[kz]);
-  r.row_y[ky] = T(1);
-  r.row_y[kz] = -(dir[ky] / dir[kz]);
-  r.row_z[kz] = T(1) / dir[kz];
+  r.sx = dir[r.kx] / dir[r.kz];
+  r.sy = dir[r.ky] / dir[r.kz];
+  r.sz = T(1) / dir[r.kz];
   r.tmin = T(ray.tmin);
   r.tmax = T(ray.tmax);
   return r;
+}
+
+/// One vertex relative to the ray origin, sheared: (x', y', z') of the paper. The coordinates
+/// are read by index from the vertex in memory (no selects), each product rounded on its own.
+template <typename T>
+IRGRID_HD inline void shear_vertex(const WatertightRay<T>& r, const Vec3<T>& p, T& x, T& y,
+                                   T& z) {
+  // Vec3 is three consecutive T, so its coordinates can be addressed as an array.
+  const T* c = &p.x;
+  const T* o = &r.org.x;
+  const T pz = c[r.kz] - o[r.kz];
+  x = difference_of_products(c[r.kx] - o[r.kx], T(1), r.sx, pz);
+  y = difference_of_products(c[r.ky] - o[r.ky], T(1), r.sy, pz);
+  z = r.sz * pz;
 }
 
 /// Hit distance and barycentrics (u weighs p1, v weighs p2).
@@ -73,12 +84,13 @@ struct TriangleHit {
 /// the distance t satisfies r.tmin <= t <= r.tmax and t < t_limit. Degenerate triangles and rays
 /// in the triangle's plane never hit.
 template <typename T>
-IRGRID_HD inline bool intersect_watertight(const WatertightRay<T>& r, Vec3<T> p0, Vec3<T> p1,
-                                           Vec3<T> p2, T t_limit, TriangleHit<T>& hit) {
-  const Vec3<T> a = p0 - r.org, b = p1 - r.org, c = p2 - r.org;
-  const T a_x = dot(a, r.row_x), a_y = dot(a, r.row_y);
-  const T b_x = dot(b, r.row_x), b_y = dot(b, r.row_y);
-  const T c_x = dot(c, r.row_x), c_y = dot(c, r.row_y);
+IRGRID_HD inline bool intersect_watertight(const WatertightRay<T>& r, const Vec3<T>& p0,
+                                           const Vec3<T>& p1, const Vec3<T>& p2, T t_limit,
+                                           TriangleHit<T>& hit) {
+  T a_x, a_y, a_z, b_x, b_y, b_z, c_x, c_y, c_z;
+  shear_vertex(r, p0, a_x, a_y, a_z);
+  shear_vertex(r, p1, b_x, b_y, b_z);
+  shear_vertex(r, p2, c_x, c_y, c_z);
   T u = difference_of_products(c_x, b_y, c_y, b_x);
   T v = difference_of_products(a_x, c_y, a_y, c_x);
   T w = difference_of_products(b_x, a_y, b_y, a_x);
@@ -93,7 +105,7 @@ IRGRID_HD inline bool intersect_watertight(const WatertightRay<T>& r, Vec3<T> p0
   if ((u < 0 || v < 0 || w < 0) && (u > 0 || v > 0 || w > 0)) return false;
   const T det = u + v + w;
   if (det == T(0)) return false;
-  const T t_scaled = u * dot(a, r.row_z) + v * dot(b, r.row_z) + w * dot(c, r.row_z);
+  const T t_scaled = u * a_z + v * b_z + w * c_z;
   const T inv_det = T(1) / det;
   const T t = t_scaled * inv_det;
   if (!(t >= r.tmin && t <= r.tmax && t < t_limit)) return false;

@@ -17,7 +17,7 @@ __global__ void __launch_bounds__(128)
   Hit best;
   TriangleHit<float> hit;
   for (std::uint32_t j = 0; j < triangle_count; ++j) {
-    const TriangleVertices tri = triangles[j];
+    const TriangleVertices& tri = triangles[j];  // read in place: the test indexes it
     if (!intersect_watertight(r, tri.p0, tri.p1, tri.p2, best.t, hit)) continue;
     best = {j, hit.t, hit.u, hit.v};
     if (any) break;
