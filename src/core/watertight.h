@@ -26,6 +26,19 @@ IRGRID_HD inline T difference_of_products(T a, T b, T c, T d) {
 #endif
 }
 
+/// a - b*c with the product rounded on its own (never contracted into an FMA).
+template <typename T>
+IRGRID_HD inline T minus_product(T a, T b, T c) {
+#if IRGRID_ON_DEVICE
+  if constexpr (sizeof(T) == 4)
+    return __fsub_rn(a, __fmul_rn(b, c));
+  else
+    return __dsub_rn(a, __dmul_rn(b, c));
+#else
+  return a - b * c;
+#endif
+}
+
 /// Per-ray constants of the watertight test, as in the paper: the axis kz where the direction
 /// is largest, kx and ky the other two (swapped to keep the winding), and the shear
 /// x' = x[kx] - sx x[kz], y' = x[ky] - sy x[kz], z' = sz x[kz].
@@ -69,8 +82,8 @@ IRGRID_HD inline void shear_vertex(const WatertightRay<T>& r, const Vec3<T>& p, 
   const T* c = &p.x;
   const T* o = &r.org.x;
   const T pz = c[r.kz] - o[r.kz];
-  x = difference_of_products(c[r.kx] - o[r.kx], T(1), r.sx, pz);
-  y = difference_of_products(c[r.ky] - o[r.ky], T(1), r.sy, pz);
+  x = minus_product(c[r.kx] - o[r.kx], r.sx, pz);
+  y = minus_product(c[r.ky] - o[r.ky], r.sy, pz);
   z = r.sz * pz;
 }
 
