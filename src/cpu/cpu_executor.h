@@ -37,8 +37,8 @@ class CpuExecutor {
   template <typename T>
   using Buffer = std::vector<T, MeteredAllocator<T>>;
 
-  /// A buffer of n elements. Contents are unspecified by the contract (value-initialised
-  /// here), so callers must write before they read.
+  /// A buffer of n elements. Contents are unspecified (left uninitialised here, as on the
+  /// device), so callers must write before they read.
   template <typename T>
   Buffer<T> allocate(std::size_t n) const {
     return Buffer<T>(n);

@@ -7,7 +7,6 @@
 // comes out in octree form: one dense block of 8 entries per split node.
 #pragma once
 
-#include <bit>
 #include <cstdint>
 #include <vector>
 
@@ -78,6 +77,14 @@ IRGRID_HD inline std::uint32_t child_overlap_mask(const GridInfo& info, Voxel lo
       mask &= ~(1u << bit);
   }
   return mask;
+}
+
+/// Number of set bits of an 8-bit mask, without a library call (x86-64 without -mpopcnt turns
+/// std::popcount into one).
+IRGRID_HD inline std::uint32_t popcount8(std::uint32_t x) {
+  x = x - ((x >> 1) & 0x55u);
+  x = (x & 0x33u) + ((x >> 2) & 0x33u);
+  return (x + (x >> 4)) & 0x0Fu;
 }
 
 /// Indices i < count with keep(i), in order.
@@ -230,7 +237,7 @@ std::pair<LevelNodes<Exec>, RefPairs<Exec>> split_level(Exec& exec, const GridIn
   exec.for_each("split masks", selected, [=] IRGRID_HD(std::size_t k) {
     const std::uint32_t i = d_picked[k];
     d_masks[k] = child_overlap_mask(info, lo[node[i]], half, triangles[tri[i]]);
-    d_offsets[k] = std::uint32_t(std::popcount(d_masks[k]));
+    d_offsets[k] = popcount8(d_masks[k]);
   });
   check_reference_count(
       exec.transform_reduce("split offsets", selected, std::uint64_t(0),
