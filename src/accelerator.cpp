@@ -66,9 +66,9 @@ std::unique_ptr<Accelerator> make_accelerator(const Scene& scene, const std::str
     BuildConfig config = options.grid;
     config.shape = grid->second;
 #if IRGRID_HAS_CUDA
-    if (backend == "cuda") return make_grid_cuda(scene, config);
+    if (backend == "cuda") return make_grid_cuda(scene, config, options.on_phase);
 #endif
-    return make_grid_cpu(scene, config);
+    return make_grid_cpu(scene, config, options.on_phase);
   }
 #if IRGRID_HAS_EMBREE
   if (structure == "embree") {

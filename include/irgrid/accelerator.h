@@ -1,6 +1,7 @@
 // irgrid/accelerator.h: the coarse backend seam: build a structure over a scene, trace batches.
 #pragma once
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <span>
@@ -49,10 +50,19 @@ class Accelerator {
   virtual const BuildInfo& build_info() const = 0;
 };
 
+/// Called by a build each time one of its phases ends, with the phase's name (for progress
+/// output; grids only). Runs on the calling thread.
+using PhaseObserver = std::function<void(const char* phase)>;
+
+/// How many phases a grid build reports at most: top grid, octree levels, cells and references,
+/// merge, voxel map, expansion, and compress when compressed cells are on.
+inline constexpr int kGridBuildPhases = 7;
+
 /// Options for make_accelerator; more fields arrive with more structures.
 struct AcceleratorOptions {
   std::string backend = "cpu";  ///< "cpu", "cuda" or "auto" (CUDA when a GPU is visible)
   BuildConfig grid;             ///< parameters of the grid structures
+  PhaseObserver on_phase;       ///< optional: told when each build phase ends
 };
 
 /// Builds `structure` over `scene`. Throws Error{invalid_argument} naming the structure when it is

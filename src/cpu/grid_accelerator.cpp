@@ -18,7 +18,8 @@ namespace {
 
 class GridCpu final : public GridAcceleratorBase {
  public:
-  GridCpu(const Scene& scene, const BuildConfig& config) : GridAcceleratorBase(config) {
+  GridCpu(const Scene& scene, const BuildConfig& config, const PhaseObserver& on_phase)
+      : GridAcceleratorBase(config) {
     const auto start = std::chrono::steady_clock::now();
     CpuExecutor exec;
     MemoryMeter::reset_peak();
@@ -26,9 +27,9 @@ class GridCpu final : public GridAcceleratorBase {
     gather_triangles(scene, grid_.triangles);
     empty_scene_ = grid_.triangles.empty();
     if (!empty_scene_) {
-      build_grid(exec, grid_, config, info_.phases_ms);
+      build_grid(exec, grid_, config, info_.phases_ms, on_phase);
       if (config.compress && fits_compact_cells(grid_.info)) {
-        PhaseClock clock(exec, info_.phases_ms);
+        PhaseClock clock(exec, info_.phases_ms, on_phase);
         compress_cells(exec, grid_, compact_cells_);
         grid_.cells = {};
         clock.lap("compress");
@@ -85,8 +86,9 @@ class GridCpu final : public GridAcceleratorBase {
 
 }  // namespace
 
-std::unique_ptr<Accelerator> make_grid_cpu(const Scene& scene, const BuildConfig& config) {
-  return std::make_unique<GridCpu>(scene, config);
+std::unique_ptr<Accelerator> make_grid_cpu(const Scene& scene, const BuildConfig& config,
+                                           const PhaseObserver& on_phase) {
+  return std::make_unique<GridCpu>(scene, config, on_phase);
 }
 
 }  // namespace irgrid

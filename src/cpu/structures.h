@@ -11,14 +11,16 @@ namespace irgrid {
 
 std::unique_ptr<Accelerator> make_brute_force_cpu(const Scene& scene);
 /// The irregular grid, or the uniform / two-level grid selected by config.shape.
-std::unique_ptr<Accelerator> make_grid_cpu(const Scene& scene, const BuildConfig& config);
+std::unique_ptr<Accelerator> make_grid_cpu(const Scene& scene, const BuildConfig& config,
+                                           const PhaseObserver& on_phase = {});
 #if IRGRID_HAS_EMBREE
 std::unique_ptr<Accelerator> make_embree_cpu(const Scene& scene);
 #endif
 #if IRGRID_HAS_CUDA
 std::unique_ptr<Accelerator> make_brute_force_cuda(const Scene& scene);
 /// The grids of make_grid_cpu, built and traversed on the GPU (the same grid, bit for bit).
-std::unique_ptr<Accelerator> make_grid_cuda(const Scene& scene, const BuildConfig& config);
+std::unique_ptr<Accelerator> make_grid_cuda(const Scene& scene, const BuildConfig& config,
+                                            const PhaseObserver& on_phase = {});
 #endif
 
 /// Appends the scene's triangles, in order, to `out` in the tracers' layout (any vector type).

@@ -37,10 +37,10 @@ __global__ void __launch_bounds__(kTraceThreads)
 /// the compressed cells; adds phase times to phases_ms.
 void build_on_device(CudaExecutor& exec, GridArrays<CudaExecutor>& grid,
                      CudaExecutor::Buffer<CompactCell>& compact, const BuildConfig& config,
-                     std::map<std::string, double>& phases_ms) {
-  build_grid(exec, grid, config, phases_ms);
+                     std::map<std::string, double>& phases_ms, const PhaseObserver& on_phase = {}) {
+  build_grid(exec, grid, config, phases_ms, on_phase);
   if (config.compress && fits_compact_cells(grid.info)) {
-    PhaseClock clock(exec, phases_ms);
+    PhaseClock clock(exec, phases_ms, on_phase);
     compress_cells(exec, grid, compact);
     clock.lap("compress");
   }
@@ -66,13 +66,14 @@ std::vector<T> to_host(const cuda::DeviceBuffer<T>& buffer) {
 
 class GridCuda final : public GridAcceleratorBase {
  public:
-  GridCuda(const Scene& scene, const BuildConfig& config) : GridAcceleratorBase(config) {
+  GridCuda(const Scene& scene, const BuildConfig& config, const PhaseObserver& on_phase)
+      : GridAcceleratorBase(config) {
     const auto start = std::chrono::steady_clock::now();
     grid_.triangles = upload_triangles(exec_, scene);
     exec_.pool().reset_peak();
     empty_scene_ = grid_.triangles.empty();
     if (!empty_scene_) {
-      build_on_device(exec_, grid_, compact_cells_, config, info_.phases_ms);
+      build_on_device(exec_, grid_, compact_cells_, config, info_.phases_ms, on_phase);
       if (!compact_cells_.empty()) grid_.cells.reset();
     }
     exec_.pool().trim();
@@ -143,8 +144,9 @@ class GridCuda final : public GridAcceleratorBase {
 
 }  // namespace
 
-std::unique_ptr<Accelerator> make_grid_cuda(const Scene& scene, const BuildConfig& config) {
-  return std::make_unique<GridCuda>(scene, config);
+std::unique_ptr<Accelerator> make_grid_cuda(const Scene& scene, const BuildConfig& config,
+                                            const PhaseObserver& on_phase) {
+  return std::make_unique<GridCuda>(scene, config, on_phase);
 }
 
 HostGridArrays build_grid_cuda_arrays(const Scene& scene, const BuildConfig& config, int builds) {

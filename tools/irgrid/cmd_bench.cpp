@@ -8,6 +8,7 @@
 #include "bench_report.h"
 #include "commands.h"
 #include "common.h"
+#include "progress.h"
 #include "irgrid/camera.h"
 #include "irgrid/error.h"
 #include "irgrid/rays.h"
@@ -70,13 +71,18 @@ std::vector<Contender> parse_contenders(const BenchOptions& o) {
 
 /// Builds once to warm up, then `repeat` more times; keeps the last and the median time.
 void timed_build(const Scene& scene, int repeat, Contender& c) {
-  c.accelerator = make_accelerator(scene, c.structure, c.options);
+  Progress progress(fmt::format("building {} ({} times)", c.structure, repeat + 1),
+                    std::uint64_t(repeat + 1) * kGridBuildPhases);
+  AcceleratorOptions options = c.options;
+  options.on_phase = [&](const char*) { progress.advance(1); };
+  c.accelerator = make_accelerator(scene, c.structure, options);
   std::vector<double> times;
   for (int i = 0; i < repeat; ++i) {
     c.accelerator.reset();
-    c.accelerator = make_accelerator(scene, c.structure, c.options);
+    c.accelerator = make_accelerator(scene, c.structure, options);
     times.push_back(c.accelerator->build_info().build_ms);
   }
+  progress.done();
   c.result = {scene.name,
               scene.triangle_count(),
               c.accelerator->structure(),

@@ -73,8 +73,12 @@ std::unique_ptr<Accelerator> build_reporting(const Scene& scene,
   AcceleratorOptions options;
   options.backend = structure.backend;
   options.grid = structure.grid;
-  auto accelerator = make_accelerator(
-      scene, structure.structure.empty() ? default_structure() : structure.structure, options);
+  const std::string name =
+      structure.structure.empty() ? default_structure() : structure.structure;
+  Progress progress("building " + name, kGridBuildPhases);
+  options.on_phase = [&](const char*) { progress.advance(1); };
+  auto accelerator = make_accelerator(scene, name, options);
+  progress.done();
   fmt::print(stderr, "built {} on {} in {:.1f} ms\n", accelerator->structure(),
              accelerator->backend(), accelerator->build_info().build_ms);
   return accelerator;

@@ -16,6 +16,7 @@
 #include "core/build/octree_levels.h"
 #include "core/build/top_grid.h"
 #include "core/build/top_level_refs.h"
+#include "irgrid/accelerator.h"
 #include "irgrid/build_config.h"
 
 namespace irgrid {
@@ -53,33 +54,36 @@ typename Exec::template Buffer<std::int32_t> top_cell_depths(Exec& exec, GridInf
 template <typename Exec>
 class PhaseClock {
  public:
-  PhaseClock(Exec& exec, std::map<std::string, double>& phases_ms)
-      : exec_(exec), phases_ms_(phases_ms) {}
+  PhaseClock(Exec& exec, std::map<std::string, double>& phases_ms,
+             const PhaseObserver& on_phase = {})
+      : exec_(exec), phases_ms_(phases_ms), on_phase_(on_phase) {}
   void lap(const char* phase) {
     exec_.synchronize();
     const auto now = std::chrono::steady_clock::now();
     phases_ms_[phase] += std::chrono::duration<double, std::milli>(now - last_).count();
     last_ = now;
+    if (on_phase_) on_phase_(phase);
   }
 
  private:
   Exec& exec_;
   std::map<std::string, double>& phases_ms_;
+  const PhaseObserver& on_phase_;
   std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
 };
 
 /// Builds the grid over the triangles already gathered into grid.triangles; adds the time of
-/// each phase to phases_ms.
+/// each phase to phases_ms and tells on_phase (when set) as each one ends.
 template <typename Exec>
 void build_grid(Exec& exec, GridArrays<Exec>& grid, const BuildConfig& config,
-                std::map<std::string, double>& phases_ms) {
+                std::map<std::string, double>& phases_ms, const PhaseObserver& on_phase = {}) {
   if (!(config.lambda2 >= 0) || !std::isfinite(config.lambda2))
     throw Error(ErrorCode::invalid_argument,
                 "lambda2 = " + std::to_string(config.lambda2) + " must be a number >= 0");
   const auto count = std::uint32_t(grid.triangles.size());
   if (count == 0) throw Error(ErrorCode::invalid_argument, "a grid needs at least one triangle");
   const TriangleVertices* triangles = grid.triangles.data();
-  PhaseClock clock(exec, phases_ms);
+  PhaseClock clock(exec, phases_ms, on_phase);
   grid.info = plan_top_grid(exec, triangles, count, config);
   auto pairs = emit_top_level_refs(exec, triangles, grid.info);
   clock.lap("top grid");
