@@ -33,14 +33,14 @@ std::vector<std::string> shared_scene_paths() {
   const char* env = std::getenv("IRGRID_SHARED_SCENES");
   const std::filesystem::path root = env ? env : IRGRID_SHARED_SCENES;
   std::vector<std::string> paths;
-  for (const char* file : {"crytek-sponza/sponza.obj.xz", "conference/conference.obj.xz",
-                           "crown/crown.obj.xz"})
+  for (const char* file :
+       {"crytek-sponza/sponza.obj.xz", "conference/conference.obj.xz", "crown/crown.obj.xz"})
     if (std::filesystem::exists(root / file)) paths.push_back((root / file).string());
   return paths;
 }
 
-const std::vector<std::string> kBuiltins = {"builtin:cornell", "builtin:teapot-stadium:4000",
-                                            "builtin:soup:3000", "builtin:hairball:5000",
+const std::vector<std::string> kBuiltins = {"builtin:cornell",     "builtin:teapot-stadium:4000",
+                                            "builtin:soup:3000",   "builtin:hairball:5000",
                                             "builtin:sphere:2000", "builtin:cube"};
 
 template <typename T, typename Buffer>
@@ -87,7 +87,8 @@ TEST(GpuGrid, SameArraysAsTheCpuOnSharedScenes) {
   const auto paths = shared_scene_paths();
   if (paths.empty()) GTEST_SKIP() << "no shared scenes found";
 #if IRGRID_HAS_CUDA
-  for (const auto& path : paths) expect_same_grid(load_scene(path), BuildConfig{}, path);
+  for (const auto& path : paths)
+    expect_same_grid(load_scene(path), BuildConfig{}, path);
 #endif
 }
 
@@ -149,7 +150,8 @@ TEST(GpuGrid, SameHitsAsTheCpuOnSharedScenes) {
   IRGRID_SKIP_WITHOUT_GPU();
   const auto paths = shared_scene_paths();
   if (paths.empty()) GTEST_SKIP() << "no shared scenes found";
-  for (const auto& path : paths) expect_same_hits(load_scene(path), "irregular", path);
+  for (const auto& path : paths)
+    expect_same_hits(load_scene(path), "irregular", path);
 }
 
 TEST(GpuGrid, CudaWithoutDeviceIsAClearError) {

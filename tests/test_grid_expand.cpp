@@ -86,8 +86,8 @@ bool same_cells(const Grid& a, const Grid& b) {
 }
 
 GridView view_of(const Grid& grid) {
-  return {grid.info, grid.entries.data(), grid.cells.data(), nullptr, grid.refs.data(),
-          grid.triangles.data()};
+  return {grid.info, grid.entries.data(), grid.cells.data(),
+          nullptr,   grid.refs.data(),    grid.triangles.data()};
 }
 
 /// Checks, on every cell of small grids and an even sample of about 1500 cells of larger ones,

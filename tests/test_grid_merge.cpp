@@ -247,8 +247,8 @@ template <Query kQuery>
 std::uint64_t traversal_mismatches(const MergeCase& c, const ReferenceTracer& reference,
                                    const std::vector<Ray>& rays) {
   const Grid& grid = c.after;
-  const GridView view{grid.info, grid.entries.data(), grid.cells.data(), nullptr, grid.refs.data(),
-                      grid.triangles.data()};
+  const GridView view{grid.info, grid.entries.data(), grid.cells.data(),
+                      nullptr,   grid.refs.data(),    grid.triangles.data()};
   std::vector<Hit> hits(rays.size());
   for (std::size_t i = 0; i < rays.size(); ++i)
     hits[i] = traverse_grid<kQuery>(view, rays[i]);

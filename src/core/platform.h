@@ -25,8 +25,12 @@ namespace irgrid {
 /// min(a, b) and max(a, b) as one instruction on every target (minss/maxss, fmnmx), where
 /// fminf/fmaxf become library calls on x86 without -ffast-math. NaN rule: when either argument is
 /// NaN they return `b`, so hot loops pass the running value second to skip a NaN candidate.
-IRGRID_HD inline float min_fast(float a, float b) { return a < b ? a : b; }
-IRGRID_HD inline float max_fast(float a, float b) { return a > b ? a : b; }
+IRGRID_HD inline float min_fast(float a, float b) {
+  return a < b ? a : b;
+}
+IRGRID_HD inline float max_fast(float a, float b) {
+  return a > b ? a : b;
+}
 
 /// Adds `value` to *target atomically and returns the old value (relaxed order: counters only).
 IRGRID_HD inline std::uint32_t atomic_add(std::uint32_t* target, std::uint32_t value) {

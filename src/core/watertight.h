@@ -76,8 +76,7 @@ IRGRID_HD inline WatertightRay<T> make_watertight_ray(const Ray& ray) {
 /// One vertex relative to the ray origin, sheared: (x', y', z') of the paper. The coordinates
 /// are read by index from the vertex in memory (no selects), each product rounded on its own.
 template <typename T>
-IRGRID_HD inline void shear_vertex(const WatertightRay<T>& r, const Vec3<T>& p, T& x, T& y,
-                                   T& z) {
+IRGRID_HD inline void shear_vertex(const WatertightRay<T>& r, const Vec3<T>& p, T& x, T& y, T& z) {
   // Vec3 is three consecutive T, so its coordinates can be addressed as an array.
   const T* c = &p.x;
   const T* o = &r.org.x;

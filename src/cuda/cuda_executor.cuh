@@ -8,12 +8,12 @@
 // selection are stable.
 #pragma once
 
+#include <thrust/iterator/counting_iterator.h>
+#include <thrust/iterator/transform_iterator.h>
 #include <cub/device/device_radix_sort.cuh>
 #include <cub/device/device_reduce.cuh>
 #include <cub/device/device_scan.cuh>
 #include <cub/device/device_select.cuh>
-#include <thrust/iterator/counting_iterator.h>
-#include <thrust/iterator/transform_iterator.h>
 
 #include <cstddef>
 #include <cstdint>
@@ -76,8 +76,8 @@ class CudaExecutor {
   template <typename F>
   void for_each(const char* name, std::size_t n, F&& body) const {
     if (n == 0) return;
-    cuda_detail::for_each_kernel<<<cuda_detail::launch_blocks(n, kThreads), kThreads, 0,
-                                   stream_>>>(n, body);
+    cuda_detail::for_each_kernel<<<cuda_detail::launch_blocks(n, kThreads), kThreads, 0, stream_>>>(
+        n, body);
     cuda::check(cudaGetLastError(), name, __FILE__, __LINE__);
   }
 
@@ -89,8 +89,8 @@ class CudaExecutor {
     T last_in{};
     copy_to_host(&last_in, in + n - 1, name);  // before the scan: in may be out
     std::size_t bytes = 0;
-    cuda::check(cub::DeviceScan::ExclusiveSum(nullptr, bytes, in, out, n, stream_), name,
-                __FILE__, __LINE__);
+    cuda::check(cub::DeviceScan::ExclusiveSum(nullptr, bytes, in, out, n, stream_), name, __FILE__,
+                __LINE__);
     const auto scratch = scratch_for(bytes);
     cuda::check(cub::DeviceScan::ExclusiveSum(scratch.data(), bytes, in, out, n, stream_), name,
                 __FILE__, __LINE__);
@@ -101,17 +101,20 @@ class CudaExecutor {
 
   template <typename T, typename Op>
   T reduce(const char* name, const T* in, std::size_t n, T init, Op op) const {
-    return transform_reduce(name, n, init, op, [in] __host__ __device__(std::size_t i) { return in[i]; });
+    return transform_reduce(name, n, init, op,
+                            [in] __host__ __device__(std::size_t i) { return in[i]; });
   }
 
   template <typename T, typename Op, typename F>
   T transform_reduce(const char* name, std::size_t n, T init, Op op, F f) const {
     if (n == 0) return init;
-    const auto items = thrust::make_transform_iterator(thrust::counting_iterator<std::size_t>(0), f);
+    const auto items =
+        thrust::make_transform_iterator(thrust::counting_iterator<std::size_t>(0), f);
     const auto result = allocate<T>(1);
     std::size_t bytes = 0;
-    cuda::check(cub::DeviceReduce::Reduce(nullptr, bytes, items, result.data(), n, op, init, stream_),
-                name, __FILE__, __LINE__);
+    cuda::check(
+        cub::DeviceReduce::Reduce(nullptr, bytes, items, result.data(), n, op, init, stream_), name,
+        __FILE__, __LINE__);
     const auto scratch = scratch_for(bytes);
     cuda::check(cub::DeviceReduce::Reduce(scratch.data(), bytes, items, result.data(), n, op, init,
                                           stream_),
@@ -127,8 +130,8 @@ class CudaExecutor {
   void sort_pairs(const char* name, K* keys, V* values, std::size_t n, int key_bits) const {
     if (key_bits < 0 || key_bits > int(8 * sizeof(K)))
       throw Error(ErrorCode::invalid_argument,
-                  std::string(name) + ": key_bits = " + std::to_string(key_bits) +
-                      " outside [0, " + std::to_string(8 * sizeof(K)) + "]");
+                  std::string(name) + ": key_bits = " + std::to_string(key_bits) + " outside [0, " +
+                      std::to_string(8 * sizeof(K)) + "]");
     if (n <= 1 || key_bits == 0) return;
     auto keys_out = allocate<K>(n);
     auto values_out = allocate<V>(n);
@@ -138,14 +141,13 @@ class CudaExecutor {
                 name, __FILE__, __LINE__);
     const auto scratch = scratch_for(bytes);
     cuda::check(cub::DeviceRadixSort::SortPairs(scratch.data(), bytes, keys, keys_out.data(),
-                                                values, values_out.data(), n, 0, key_bits,
-                                                stream_),
+                                                values, values_out.data(), n, 0, key_bits, stream_),
                 name, __FILE__, __LINE__);
-    cuda::check(cudaMemcpyAsync(keys, keys_out.data(), n * sizeof(K), cudaMemcpyDeviceToDevice,
+    cuda::check(
+        cudaMemcpyAsync(keys, keys_out.data(), n * sizeof(K), cudaMemcpyDeviceToDevice, stream_),
+        name, __FILE__, __LINE__);
+    cuda::check(cudaMemcpyAsync(values, values_out.data(), n * sizeof(V), cudaMemcpyDeviceToDevice,
                                 stream_),
-                name, __FILE__, __LINE__);
-    cuda::check(cudaMemcpyAsync(values, values_out.data(), n * sizeof(V),
-                                cudaMemcpyDeviceToDevice, stream_),
                 name, __FILE__, __LINE__);
   }
 

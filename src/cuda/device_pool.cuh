@@ -51,9 +51,7 @@ class DevicePool {
 
   /// Returns every cached block to the driver (after a one-off build: the arena pays off only
   /// for rebuilds, and cached blocks would otherwise hold the build's peak for the grid's life).
-  void trim() {
-    allocator_.FreeAllCached();
-  }
+  void trim() { allocator_.FreeAllCached(); }
 
   /// Allocations that reached the driver (not served from the cache) since construction.
   std::uint64_t fresh_allocations() const { return fresh_allocations_; }

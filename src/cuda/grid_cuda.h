@@ -14,7 +14,7 @@ namespace irgrid {
 struct HostGridArrays {
   GridInfo info{};
   std::vector<Entry> entries;
-  std::vector<Cell> cells;  ///< the full cells, before compression
+  std::vector<Cell> cells;                 ///< the full cells, before compression
   std::vector<CompactCell> compact_cells;  ///< empty unless config.compress and they fit
   std::vector<std::uint32_t> refs;
   /// Device allocations that reached the driver during the last of the builds (0 when the

@@ -8,12 +8,12 @@
 #include "bench_report.h"
 #include "commands.h"
 #include "common.h"
-#include "progress.h"
 #include "irgrid/camera.h"
 #include "irgrid/error.h"
 #include "irgrid/rays.h"
 #include "irgrid/system.h"
 #include "irgrid/validate.h"
+#include "progress.h"
 
 namespace irgrid::cli {
 namespace {

@@ -73,8 +73,7 @@ std::unique_ptr<Accelerator> build_reporting(const Scene& scene,
   AcceleratorOptions options;
   options.backend = structure.backend;
   options.grid = structure.grid;
-  const std::string name =
-      structure.structure.empty() ? default_structure() : structure.structure;
+  const std::string name = structure.structure.empty() ? default_structure() : structure.structure;
   Progress progress("building " + name, kGridBuildPhases);
   options.on_phase = [&](const char*) { progress.advance(1); };
   auto accelerator = make_accelerator(scene, name, options);

@@ -86,10 +86,10 @@ void flatten_map(Exec& exec, GridArrays<Exec>& grid, const std::uint8_t* depth) 
       const std::uint32_t steps = depth[root] < 3 ? depth[root] : 3;
       d_offsets[r] = old[root].log_dim() == 0 ? 0 : 1u << (3 * steps);
     });
-    const std::uint64_t chunk =
-        exec.transform_reduce("flatten map", num_roots, std::uint64_t(0),
-                              [] IRGRID_HD(std::uint64_t a, std::uint64_t b) { return a + b; },
-                              [=] IRGRID_HD(std::size_t r) { return std::uint64_t(d_offsets[r]); });
+    const std::uint64_t chunk = exec.transform_reduce(
+        "flatten map", num_roots, std::uint64_t(0),
+        [] IRGRID_HD(std::uint64_t a, std::uint64_t b) { return a + b; },
+        [=] IRGRID_HD(std::size_t r) { return std::uint64_t(d_offsets[r]); });
     if (written + chunk > kMaxEntryTarget)
       throw Error(ErrorCode::limit_exceeded,
                   "voxel map: more than 2^30 - 1 entries (lower lambda2)");
@@ -121,9 +121,8 @@ void flatten_map(Exec& exec, GridArrays<Exec>& grid, const std::uint8_t* depth) 
         [=] IRGRID_HD(std::uint32_t j) { return d_block[j].log_dim() != 0; }, next_count);
     Indices next_roots = exec.template allocate<std::uint32_t>(next_count);
     std::uint32_t *d_next_roots = next_roots.data(), *d_next_slots = next_slots.data();
-    exec.for_each("flatten map", next_count, [=] IRGRID_HD(std::size_t k) {
-      d_next_roots[k] = d_reached[d_next_slots[k]];
-    });
+    exec.for_each("flatten map", next_count,
+                  [=] IRGRID_HD(std::size_t k) { d_next_roots[k] = d_reached[d_next_slots[k]]; });
     parts.push_back(std::move(block));
     slots = std::move(next_slots);
     roots = std::move(next_roots);

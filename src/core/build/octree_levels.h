@@ -239,11 +239,11 @@ std::pair<LevelNodes<Exec>, RefPairs<Exec>> split_level(Exec& exec, const GridIn
     d_masks[k] = child_overlap_mask(info, lo[node[i]], half, triangles[tri[i]]);
     d_offsets[k] = popcount8(d_masks[k]);
   });
-  check_reference_count(
-      exec.transform_reduce("split offsets", selected, std::uint64_t(0),
+  check_reference_count(exec.transform_reduce(
+                            "split offsets", selected, std::uint64_t(0),
                             [] IRGRID_HD(std::uint64_t a, std::uint64_t b) { return a + b; },
                             [=] IRGRID_HD(std::size_t k) { return std::uint64_t(d_offsets[k]); }),
-      "octree references");
+                        "octree references");
   const std::uint32_t total = exec.exclusive_scan("split offsets", d_offsets, d_offsets, selected);
   RefPairs<Exec> child_pairs{exec.template allocate<std::uint32_t>(total),
                              exec.template allocate<std::uint32_t>(total), total};

@@ -59,8 +59,10 @@ IRGRID_HD inline void cleary_resolution(const Vec3<float>& extent, double densit
     // Beyond 2^40 the callers reject the resolution anyway; keep the products finite.
     double n = fmin(fmax(guess, 0.0), 0x1p40);
     const double bound = power_of(double(extent[a]), axes);
-    while (n > 0 && power_of(n, axes) * side_power > bound) n -= 1;
-    while (n < 0x1p40 && power_of(n + 1, axes) * side_power <= bound) n += 1;
+    while (n > 0 && power_of(n, axes) * side_power > bound)
+      n -= 1;
+    while (n < 0x1p40 && power_of(n + 1, axes) * side_power <= bound)
+      n += 1;
     out[a] = n;
   }
 }

@@ -111,7 +111,8 @@ IRGRID_HD inline std::int32_t octree_depth(const Vec3<float>& cell_size, float l
   // ceil(log2(largest)) for an integer largest >= 2: the bit width of largest - 1.
   std::uint64_t below = std::uint64_t(fmin(largest, 0x1p40)) - 1;
   std::int32_t depth = 0;
-  while (below != 0) below >>= 1, ++depth;
+  while (below != 0)
+    below >>= 1, ++depth;
   return depth < max_depth ? depth : max_depth;
 }
 

@@ -62,7 +62,9 @@ IRGRID_HD inline bool fits_compact_cells(const GridInfo& info) {
 }
 
 /// Cell i in the full layout, from either array.
-IRGRID_HD inline Cell load_cell(const Cell* cells, std::uint32_t i) { return cells[i]; }
+IRGRID_HD inline Cell load_cell(const Cell* cells, std::uint32_t i) {
+  return cells[i];
+}
 IRGRID_HD inline Cell load_cell(const CompactCell* cells, std::uint32_t i) {
   const CompactCell c = cells[i];
   return {{c.lo[0], c.lo[1], c.lo[2]}, c.begin, {c.hi[0], c.hi[1], c.hi[2]}, cells[i + 1].begin};
