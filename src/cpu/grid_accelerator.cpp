@@ -5,7 +5,6 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "core/build/build_grid.h"
 #include "core/build/compress_cells.h"
 #include "core/grid/traverse.h"
 #include "cpu/cpu_executor.h"
@@ -27,13 +26,8 @@ class GridCpu final : public GridAcceleratorBase {
     gather_triangles(scene, grid_.triangles);
     empty_scene_ = grid_.triangles.empty();
     if (!empty_scene_) {
-      build_grid(exec, grid_, config, info_.phases_ms, on_phase);
-      if (config.compress && fits_compact_cells(grid_.info)) {
-        PhaseClock clock(exec, info_.phases_ms, on_phase);
-        compress_cells(exec, grid_, compact_cells_);
-        grid_.cells = {};
-        clock.lap("compress");
-      }
+      build_grid_and_compress(exec, grid_, compact_cells_, config, info_.phases_ms, on_phase);
+      if (!compact_cells_.empty()) grid_.cells = {};
     }
     info_.build_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

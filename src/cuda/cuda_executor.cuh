@@ -88,12 +88,9 @@ class CudaExecutor {
     if (n == 0) return T(0);
     T last_in{};
     copy_to_host(&last_in, in + n - 1, name);  // before the scan: in may be out
-    std::size_t bytes = 0;
-    cuda::check(cub::DeviceScan::ExclusiveSum(nullptr, bytes, in, out, n, stream_), name, __FILE__,
-                __LINE__);
-    const auto scratch = scratch_for(bytes);
-    cuda::check(cub::DeviceScan::ExclusiveSum(scratch.data(), bytes, in, out, n, stream_), name,
-                __FILE__, __LINE__);
+    run_cub(name, [&](void* scratch, std::size_t& bytes) {
+      return cub::DeviceScan::ExclusiveSum(scratch, bytes, in, out, n, stream_);
+    });
     T last_out{};
     copy_to_host(&last_out, out + n - 1, name);
     return T(last_out + last_in);
@@ -111,14 +108,9 @@ class CudaExecutor {
     const auto items =
         thrust::make_transform_iterator(thrust::counting_iterator<std::size_t>(0), f);
     const auto result = allocate<T>(1);
-    std::size_t bytes = 0;
-    cuda::check(
-        cub::DeviceReduce::Reduce(nullptr, bytes, items, result.data(), n, op, init, stream_), name,
-        __FILE__, __LINE__);
-    const auto scratch = scratch_for(bytes);
-    cuda::check(cub::DeviceReduce::Reduce(scratch.data(), bytes, items, result.data(), n, op, init,
-                                          stream_),
-                name, __FILE__, __LINE__);
+    run_cub(name, [&](void* scratch, std::size_t& bytes) {
+      return cub::DeviceReduce::Reduce(scratch, bytes, items, result.data(), n, op, init, stream_);
+    });
     T value{};
     copy_to_host(&value, result.data(), name);
     return value;
@@ -135,14 +127,10 @@ class CudaExecutor {
     if (n <= 1 || key_bits == 0) return;
     auto keys_out = allocate<K>(n);
     auto values_out = allocate<V>(n);
-    std::size_t bytes = 0;
-    cuda::check(cub::DeviceRadixSort::SortPairs(nullptr, bytes, keys, keys_out.data(), values,
-                                                values_out.data(), n, 0, key_bits, stream_),
-                name, __FILE__, __LINE__);
-    const auto scratch = scratch_for(bytes);
-    cuda::check(cub::DeviceRadixSort::SortPairs(scratch.data(), bytes, keys, keys_out.data(),
-                                                values, values_out.data(), n, 0, key_bits, stream_),
-                name, __FILE__, __LINE__);
+    run_cub(name, [&](void* scratch, std::size_t& bytes) {
+      return cub::DeviceRadixSort::SortPairs(scratch, bytes, keys, keys_out.data(), values,
+                                             values_out.data(), n, 0, key_bits, stream_);
+    });
     cuda::check(
         cudaMemcpyAsync(keys, keys_out.data(), n * sizeof(K), cudaMemcpyDeviceToDevice, stream_),
         name, __FILE__, __LINE__);
@@ -161,14 +149,10 @@ class CudaExecutor {
         n, in, flags.data(), keep);
     cuda::check(cudaGetLastError(), name, __FILE__, __LINE__);
     const auto selected = allocate<std::uint64_t>(1);
-    std::size_t bytes = 0;
-    cuda::check(cub::DeviceSelect::Flagged(nullptr, bytes, in, flags.data(), out, selected.data(),
-                                           n, stream_),
-                name, __FILE__, __LINE__);
-    const auto scratch = scratch_for(bytes);
-    cuda::check(cub::DeviceSelect::Flagged(scratch.data(), bytes, in, flags.data(), out,
-                                           selected.data(), n, stream_),
-                name, __FILE__, __LINE__);
+    run_cub(name, [&](void* scratch, std::size_t& bytes) {
+      return cub::DeviceSelect::Flagged(scratch, bytes, in, flags.data(), out, selected.data(), n,
+                                        stream_);
+    });
     std::uint64_t count = 0;
     copy_to_host(&count, selected.data(), name);
     return std::size_t(count);
@@ -190,10 +174,15 @@ class CudaExecutor {
  private:
   static constexpr unsigned kThreads = 256;
 
-  /// CUB's temporary storage. Never empty: a null pointer would make the next CUB call a size
-  /// query that does no work.
-  Buffer<std::uint8_t> scratch_for(std::size_t bytes) const {
-    return allocate<std::uint8_t>(bytes > 0 ? bytes : 1);
+  /// Runs a CUB device algorithm: call(scratch, bytes) once with a null scratch to learn the
+  /// size, then with scratch memory from the pool. The scratch is never null on the second call
+  /// (a null pointer would make it another size query that does no work).
+  template <typename Call>
+  void run_cub(const char* name, Call&& call) const {
+    std::size_t bytes = 0;
+    cuda::check(call(nullptr, bytes), name, __FILE__, __LINE__);
+    const auto scratch = allocate<std::uint8_t>(bytes > 0 ? bytes : 1);
+    cuda::check(call(scratch.data(), bytes), name, __FILE__, __LINE__);
   }
 
   /// Copies one value to the host, waiting for the stream (and surfacing kernel errors).

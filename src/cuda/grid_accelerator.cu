@@ -3,7 +3,6 @@
 #include <chrono>
 #include <mutex>
 
-#include "core/build/build_grid.h"
 #include "core/build/compress_cells.h"
 #include "core/grid/traverse.h"
 #include "cpu/structures.h"
@@ -33,17 +32,11 @@ __global__ void __launch_bounds__(kTraceThreads)
   }
 }
 
-/// Builds into `grid` (whose triangles are on the device) and, when asked and possible, writes
-/// the compressed cells; adds phase times to phases_ms.
+/// build_grid_and_compress, then waits for the device (kernel errors surface here).
 void build_on_device(CudaExecutor& exec, GridArrays<CudaExecutor>& grid,
                      CudaExecutor::Buffer<CompactCell>& compact, const BuildConfig& config,
                      std::map<std::string, double>& phases_ms, const PhaseObserver& on_phase = {}) {
-  build_grid(exec, grid, config, phases_ms, on_phase);
-  if (config.compress && fits_compact_cells(grid.info)) {
-    PhaseClock clock(exec, phases_ms, on_phase);
-    compress_cells(exec, grid, compact);
-    clock.lap("compress");
-  }
+  build_grid_and_compress(exec, grid, compact, config, phases_ms, on_phase);
   exec.synchronize();
 }
 

@@ -86,10 +86,7 @@ void flatten_map(Exec& exec, GridArrays<Exec>& grid, const std::uint8_t* depth) 
       const std::uint32_t steps = depth[root] < 3 ? depth[root] : 3;
       d_offsets[r] = old[root].log_dim() == 0 ? 0 : 1u << (3 * steps);
     });
-    const std::uint64_t chunk = exec.transform_reduce(
-        "flatten map", num_roots, std::uint64_t(0),
-        [] IRGRID_HD(std::uint64_t a, std::uint64_t b) { return a + b; },
-        [=] IRGRID_HD(std::size_t r) { return std::uint64_t(d_offsets[r]); });
+    const std::uint64_t chunk = wide_sum(exec, "flatten map", d_offsets, num_roots);
     if (written + chunk > kMaxEntryTarget)
       throw Error(ErrorCode::limit_exceeded,
                   "voxel map: more than 2^30 - 1 entries (lower lambda2)");

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <string>
 
+#include "core/build/build_grid.h"
 #include "core/build/cells.h"
 #include "irgrid/error.h"
 
@@ -51,6 +52,21 @@ void compress_cells(Exec& exec, const GridArrays<Exec>& grid,
                 {std::uint16_t(c.hi[0]), std::uint16_t(c.hi[1]), std::uint16_t(c.hi[2])},
                 c.begin};
   });
+}
+
+/// The whole build (build_grid), then, when config.compress is on and the grid fits, the
+/// compressed cells written into `compact` (left empty otherwise) as one more timed phase.
+/// grid.cells stays valid either way; the caller may drop it once `compact` is filled.
+template <typename Exec>
+void build_grid_and_compress(Exec& exec, GridArrays<Exec>& grid,
+                             typename Exec::template Buffer<CompactCell>& compact,
+                             const BuildConfig& config, std::map<std::string, double>& phases_ms,
+                             const PhaseObserver& on_phase = {}) {
+  build_grid(exec, grid, config, phases_ms, on_phase);
+  if (!config.compress || !fits_compact_cells(grid.info)) return;
+  PhaseClock clock(exec, phases_ms, on_phase);
+  compress_cells(exec, grid, compact);
+  clock.lap("compress");
 }
 
 }  // namespace irgrid

@@ -134,11 +134,7 @@ LevelPlan<Exec> plan_level(Exec& exec, const LevelNodes<Exec>& nodes, const RefP
     child_base[i] = splits ? 8 : 0;
     leaf_index[i] = splits ? 0 : 1;
   });
-  // Totals in 64 bits before the 32-bit scans, so an overflow is an error, not a wrap.
-  const std::uint64_t children = exec.transform_reduce(
-      "level children", n, std::uint64_t(0),
-      [] IRGRID_HD(std::uint64_t a, std::uint64_t b) { return a + b; },
-      [=] IRGRID_HD(std::size_t i) { return std::uint64_t(child_base[i]); });
+  const std::uint64_t children = wide_sum(exec, "level children", child_base, n);
   if (children > kMaxEntryTarget)
     throw Error(ErrorCode::limit_exceeded,
                 "voxel map: " + std::to_string(children) +
@@ -239,11 +235,7 @@ std::pair<LevelNodes<Exec>, RefPairs<Exec>> split_level(Exec& exec, const GridIn
     d_masks[k] = child_overlap_mask(info, lo[node[i]], half, triangles[tri[i]]);
     d_offsets[k] = popcount8(d_masks[k]);
   });
-  check_reference_count(exec.transform_reduce(
-                            "split offsets", selected, std::uint64_t(0),
-                            [] IRGRID_HD(std::uint64_t a, std::uint64_t b) { return a + b; },
-                            [=] IRGRID_HD(std::size_t k) { return std::uint64_t(d_offsets[k]); }),
-                        "octree references");
+  check_reference_count(wide_sum(exec, "split offsets", d_offsets, selected), "octree references");
   const std::uint32_t total = exec.exclusive_scan("split offsets", d_offsets, d_offsets, selected);
   RefPairs<Exec> child_pairs{exec.template allocate<std::uint32_t>(total),
                              exec.template allocate<std::uint32_t>(total), total};

@@ -59,6 +59,15 @@ inline Vec3<float> top_cell_size(const GridInfo& info) {
           (info.box_hi.z - info.box_lo.z) / float(info.top_dims[2])};
 }
 
+/// values[0] + ... + values[n - 1] in 64 bits: the total a 32-bit scan over the same values
+/// would wrap, so limits are checked on it before the scan and before any allocation.
+template <typename Exec>
+std::uint64_t wide_sum(Exec& exec, const char* name, const std::uint32_t* values, std::size_t n) {
+  return exec.transform_reduce(
+      name, n, std::uint64_t(0), [] IRGRID_HD(std::uint64_t a, std::uint64_t b) { return a + b; },
+      [=] IRGRID_HD(std::size_t i) { return std::uint64_t(values[i]); });
+}
+
 /// Throws Error{limit_exceeded} when `count` references do not fit the 30-bit limit.
 inline void check_reference_count(std::uint64_t count, const char* phase) {
   if (count > kMaxEntryTarget)
@@ -80,10 +89,7 @@ RefPairs<Exec> emit_top_level_refs(Exec& exec, const TriangleVertices* triangles
     for_each_top_cell_overlapped(info, size, triangles[i], [&](std::uint32_t) { ++count; });
     d_offsets[i] = count;
   });
-  const std::uint64_t total = exec.transform_reduce(
-      "top-level total", n, std::uint64_t(0),
-      [] IRGRID_HD(std::uint64_t a, std::uint64_t b) { return a + b; },
-      [=] IRGRID_HD(std::size_t i) { return std::uint64_t(d_offsets[i]); });
+  const std::uint64_t total = wide_sum(exec, "top-level total", d_offsets, n);
   check_reference_count(total, "top-level references");
   exec.exclusive_scan("top-level offsets", d_offsets, d_offsets, n);
   RefPairs<Exec> pairs{exec.template allocate<std::uint32_t>(total),
