@@ -86,6 +86,14 @@ IRGRID_HD inline void shear_vertex(const WatertightRay<T>& r, const Vec3<T>& p, 
   z = r.sz * pz;
 }
 
+/// Whether some of u, v, w are negative and others positive (the ray passes outside an edge).
+template <typename T>
+IRGRID_HD inline bool mixed_signs(T u, T v, T w) {
+  const T lowest = u < v ? (u < w ? u : w) : (v < w ? v : w);
+  const T highest = u > v ? (u > w ? u : w) : (v > w ? v : w);
+  return lowest < T(0) && highest > T(0);
+}
+
 /// Hit distance and barycentrics (u weighs p1, v weighs p2).
 template <typename T>
 struct TriangleHit {
@@ -106,15 +114,18 @@ IRGRID_HD inline bool intersect_watertight(const WatertightRay<T>& r, const Vec3
   T u = difference_of_products(c_x, b_y, c_y, b_x);
   T v = difference_of_products(a_x, c_y, a_y, c_x);
   T w = difference_of_products(b_x, a_y, b_y, a_x);
+  // Rounding is monotonic, so a float edge function has the exact sign of the double one or is
+  // 0: mixed nonzero signs are a miss whatever the double test would make of a zero.
+  if (mixed_signs(u, v, w)) return false;
   if constexpr (sizeof(T) == 4) {
     // An edge function of exactly zero may be a rounding artefact: redo it in double.
     if (u == T(0) || v == T(0) || w == T(0)) {
       u = T(difference_of_products(double(c_x), double(b_y), double(c_y), double(b_x)));
       v = T(difference_of_products(double(a_x), double(c_y), double(a_y), double(c_x)));
       w = T(difference_of_products(double(b_x), double(a_y), double(b_y), double(a_x)));
+      if (mixed_signs(u, v, w)) return false;
     }
   }
-  if ((u < 0 || v < 0 || w < 0) && (u > 0 || v > 0 || w > 0)) return false;
   const T det = u + v + w;
   if (det == T(0)) return false;
   const T t_scaled = u * a_z + v * b_z + w * c_z;

@@ -64,24 +64,37 @@ IRGRID_HD inline void clip_to_grid(const GridInfo& info, const Ray& ray, const V
   }
 }
 
-/// The voxel after leaving `cell` at distance t_exit through the planes of the axes in
-/// `exit_axes` (bit a set: axis a). Exit axes jump to the neighbouring voxel of the far plane;
-/// the others follow the exit point, clamped inside the cell and never behind `voxel`.
-IRGRID_HD inline Voxel next_voxel(const GridInfo& info, const Ray& ray, const Cell& cell,
-                                  Voxel voxel, float t_exit, unsigned exit_axes) {
-  Voxel next = voxel;
+/// Per-ray constants of the cell walk, in voxel units: world x maps to (x - box_lo) / voxel_size,
+/// a per-axis scale, so the ray parameter t is the same in both spaces. The voxel plane v is
+/// crossed at t = v * t_per_voxel + t_at_plane0, one multiply and one add per axis and step.
+struct WalkRay {
+  float org[3];          ///< origin in voxels
+  float dir[3];          ///< voxels per unit of t; 0 where the ray is parallel (or the axis flat)
+  float t_per_voxel[3];  ///< 1 / dir, or 0 where dir is 0
+  float t_at_plane0[3];  ///< t of plane 0, -org / dir, or +infinity where dir is 0
+  bool ascending[3];     ///< dir >= 0: the walk leaves cells through their hi planes
+};
+
+IRGRID_HD inline WalkRay make_walk_ray(const GridInfo& info, const Ray& ray) {
+  WalkRay w;
   for (int a = 0; a < 3; ++a) {
-    const float d = ray.dir[a];
-    if (exit_axes >> a & 1) {
-      next[a] = d > 0 ? cell.hi[a] : cell.lo[a] - 1;
-      continue;
-    }
-    if (d == 0.f) continue;
-    std::int32_t v = world_to_voxel(info, a, ray.org[a] + t_exit * d);
-    v = v < cell.lo[a] ? cell.lo[a] : (v >= cell.hi[a] ? cell.hi[a] - 1 : v);
-    next[a] = d > 0 ? (v > voxel[a] ? v : voxel[a]) : (v < voxel[a] ? v : voxel[a]);
+    w.org[a] = (ray.org[a] - info.box_lo[a]) * info.inv_voxel_size[a];
+    w.dir[a] = ray.dir[a] * info.inv_voxel_size[a];
+    const float inv = 1.f / w.dir[a];
+    // A direction too small for its reciprocal never crosses a plane within the grid's t range.
+    const bool parallel = !(inv > -INFINITY && inv < INFINITY);
+    if (parallel) w.dir[a] = 0.f;
+    w.t_per_voxel[a] = parallel ? 0.f : inv;
+    w.t_at_plane0[a] = parallel ? float(INFINITY) : -w.org[a] * inv;
+    w.ascending[a] = !(w.dir[a] < 0.f);
   }
-  return next;
+  return w;
+}
+
+/// The voxel holding the walk position `p` (voxel units) on axis `a`, clamped to the grid; NaN
+/// gives 0.
+IRGRID_HD inline std::int32_t voxel_at(const GridInfo& info, int a, float p) {
+  return std::int32_t(min_fast(max_fast(p, 0.f), float(info.virtual_dims[a] - 1)));
 }
 
 /// Traces one ray. Closest hit: the nearest triangle in [tmin, tmax]; any hit: the first found.
@@ -95,21 +108,21 @@ IRGRID_HD inline Hit traverse_grid(const GridView& grid, const Ray& ray,
   clip_to_grid(grid.info, ray, inv_dir, t_enter, t_leave);
   if (!(t_enter <= t_leave)) return Hit{};
   const auto shear = make_watertight_ray<float>(ray);
+  const WalkRay walk = make_walk_ray(grid.info, ray);
   Voxel voxel;
   for (int a = 0; a < 3; ++a)
-    voxel[a] = world_to_voxel(grid.info, a, ray.org[a] + t_enter * ray.dir[a]);
+    voxel[a] = voxel_at(grid.info, a,
+                        walk.dir[a] == 0.f ? walk.org[a] : walk.org[a] + t_enter * walk.dir[a]);
   const CellT* cells = cell_array<CellT>(grid);
   while (true) {
     const Cell cell = load_cell(cells, lookup_cell(grid.info, grid.entries, voxel));
     if (counters) ++counters->cells;
-    float t_exit = t_leave;
-    float t_axis[3];
+    // The exit box's far plane per axis; a parallel axis is crossed at +infinity.
+    std::int32_t far[3];
+    float t_axis[3], t_exit = t_leave;
     for (int a = 0; a < 3; ++a) {
-      const float d = ray.dir[a];
-      t_axis[a] =
-          d == 0.f ? t_leave
-                   : (voxel_to_world(grid.info, a, d > 0 ? cell.hi[a] : cell.lo[a]) - ray.org[a]) *
-                         inv_dir[a];
+      far[a] = walk.ascending[a] ? cell.hi[a] : cell.lo[a];
+      t_axis[a] = float(far[a]) * walk.t_per_voxel[a] + walk.t_at_plane0[a];
       t_exit = min_fast(t_axis[a], t_exit);
     }
     TriangleHit<float> hit;
@@ -124,14 +137,24 @@ IRGRID_HD inline Hit traverse_grid(const GridView& grid, const Ray& ray,
       if constexpr (kQuery == Query::any) return best;
     }
     if (best.prim != kNoHit && best.t <= t_exit) return best;
+    // t_exit is now finite and equals some t_axis exactly (min_fast skips NaN and keeps values).
     if (!(t_exit < t_leave)) break;
-    unsigned exit_axes = 0;
-    for (int a = 0; a < 3; ++a)
-      exit_axes |= (ray.dir[a] != 0.f && t_axis[a] == t_exit) ? 1u << a : 0u;
-    voxel = next_voxel(grid.info, ray, cell, voxel, t_exit, exit_axes);
+    // Robust step: the exit axes jump in integers past the far plane, so the walk always
+    // advances; the other axes follow the exit point, clamped to the cell's extent and never
+    // stepping back, so no sliver of a cell is skipped.
     bool inside = true;
-    for (int a = 0; a < 3; ++a)
-      inside &= voxel[a] >= 0 && voxel[a] < grid.info.virtual_dims[a];
+    for (int a = 0; a < 3; ++a) {
+      std::int32_t v;
+      if (t_axis[a] == t_exit) {
+        v = walk.ascending[a] ? far[a] : far[a] - 1;
+        inside &= std::uint32_t(v) < std::uint32_t(grid.info.virtual_dims[a]);
+      } else {
+        v = voxel_at(grid.info, a, walk.org[a] + t_exit * walk.dir[a]);
+        v = walk.ascending[a] ? (v < voxel[a] ? voxel[a] : (v >= far[a] ? far[a] - 1 : v))
+                              : (v > voxel[a] ? voxel[a] : (v < far[a] ? far[a] : v));
+      }
+      voxel[a] = v;
+    }
     if (!inside) break;
   }
   return best.prim == kNoHit ? Hit{} : best;
