@@ -34,6 +34,8 @@ class GridAcceleratorBase : public Accelerator {
     trace_checked(rays, hits, {}, query);
   }
 
+  bool counts_work() const override { return true; }
+
   void trace_counted(std::span<const Ray> rays, std::span<Hit> hits, std::span<RayWork> work,
                      Query query) const override {
     check_trace_spans(rays, hits);

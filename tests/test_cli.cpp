@@ -172,6 +172,13 @@ TEST_F(Cli, CompareRunsEveryStructureOnTheSameRays) {
     EXPECT_EQ(result["runs"][0]["rays"], json["compare"][0]["runs"][0]["rays"]);
     EXPECT_EQ(result["runs"][1]["rays"], json["compare"][0]["runs"][1]["rays"]);
     EXPECT_EQ(result["runs"][0]["mismatches"], 0);
+    // Grids report their work per ray; brute force and Embree do not count.
+    const bool grid = result["structure"] != "embree" && result["structure"] != "brute";
+    EXPECT_EQ(result["runs"][0].contains("cells_per_ray"), grid) << result["structure"];
+    if (grid) {
+      EXPECT_GE(result["runs"][0]["cells_per_ray"].get<double>(), 1.0);
+      EXPECT_GT(result["runs"][0]["tests_per_ray"].get<double>(), 0.0);
+    }
   }
 }
 

@@ -43,8 +43,10 @@ class Accelerator {
   virtual std::string backend() const = 0;
   /// Traces rays[i] into hits[i] for every i; rays.size() must equal hits.size().
   virtual void trace(std::span<const Ray> rays, std::span<Hit> hits, Query query) const = 0;
+  /// Whether trace_counted works (the grids); brute force and Embree do not count.
+  virtual bool counts_work() const { return false; }
   /// Like trace, and also counts the work per ray into work[i]. Throws Error{invalid_argument}
-  /// for structures that cannot count (brute, embree).
+  /// for structures that cannot count (counts_work() false).
   virtual void trace_counted(std::span<const Ray> rays, std::span<Hit> hits,
                              std::span<RayWork> work, Query query) const;
   virtual const BuildInfo& build_info() const = 0;

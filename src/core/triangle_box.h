@@ -96,26 +96,52 @@ IRGRID_HD inline CenteredTriangle<T> center_on_box(Vec3<T> p0, Vec3<T> p1, Vec3<
   return t;
 }
 
+/// a . b where component kZero of a is known to be 0 (kZero = -1: none). Skipping the zero
+/// term gives the same value for finite b (0 x b_k = +-0 changes no sum) and saves work the
+/// compiler may not drop itself (0 x inf is NaN).
+template <int kZero, typename T>
+IRGRID_HD inline T dot_without(Vec3<T> a, Vec3<T> b) {
+  if constexpr (kZero == 0)
+    return a.y * b.y + a.z * b.z;
+  else if constexpr (kZero == 1)
+    return a.x * b.x + a.z * b.z;
+  else if constexpr (kZero == 2)
+    return a.x * b.x + a.y * b.y;
+  else
+    return dot(a, b);
+}
+
 /// True only when the projections of triangle and box onto `axis` are disjoint by more than
-/// rounding could explain (see the header comment); a zero axis never separates.
-template <typename T>
+/// rounding could explain (see the header comment); a zero axis never separates. kZero names a
+/// component of the axis known to be 0 (-1: none).
+template <int kZero = -1, typename T>
 IRGRID_HD inline bool separated_along(Vec3<T> axis, const CenteredTriangle<T>& t) {
-  const T d0 = dot(axis, t.v0), d1 = dot(axis, t.v1), d2 = dot(axis, t.v2);
+  const T d0 = dot_without<kZero>(axis, t.v0), d1 = dot_without<kZero>(axis, t.v1),
+          d2 = dot_without<kZero>(axis, t.v2);
   const Vec3<T> magnitude = abs_of(axis);
-  const T radius = dot(magnitude, t.half);
-  const T tolerance =
-      T(8) * machine_epsilon<T>() * dot(magnitude, t.reach) + T(16) * smallest_normal<T>();
+  const T radius = dot_without<kZero>(magnitude, t.half);
+  const T tolerance = T(8) * machine_epsilon<T>() * dot_without<kZero>(magnitude, t.reach) +
+                      T(16) * smallest_normal<T>();
   const T lowest = min_of(d0, min_of(d1, d2)), highest = max_of(d0, max_of(d1, d2));
   // Written as "gap > tolerance" so that a NaN or infinite tolerance (overflow) never separates.
   return lowest - radius > tolerance || -highest - radius > tolerance;
 }
 
+/// separated_along for the unit axis k (a box face normal): the projections are coordinates.
+template <int k, typename T>
+IRGRID_HD inline bool separated_along_unit(const CenteredTriangle<T>& t) {
+  const T lowest = min_of(t.v0[k], min_of(t.v1[k], t.v2[k]));
+  const T highest = max_of(t.v0[k], max_of(t.v1[k], t.v2[k]));
+  const T tolerance = T(8) * machine_epsilon<T>() * t.reach[k] + T(16) * smallest_normal<T>();
+  return lowest - t.half[k] > tolerance || -highest - t.half[k] > tolerance;
+}
+
 /// The three axes edge x (unit box edge along x, y, z), written out: no rounding at all.
 template <typename T>
 IRGRID_HD inline bool edge_separates(Vec3<T> edge, const CenteredTriangle<T>& t) {
-  return separated_along(Vec3<T>{T(0), edge.z, -edge.y}, t) ||
-         separated_along(Vec3<T>{-edge.z, T(0), edge.x}, t) ||
-         separated_along(Vec3<T>{edge.y, -edge.x, T(0)}, t);
+  return separated_along<0>(Vec3<T>{T(0), edge.z, -edge.y}, t) ||
+         separated_along<1>(Vec3<T>{-edge.z, T(0), edge.x}, t) ||
+         separated_along<2>(Vec3<T>{edge.y, -edge.x, T(0)}, t);
 }
 
 }  // namespace triangle_box_detail
@@ -132,9 +158,7 @@ IRGRID_HD inline bool triangle_overlaps_box(Vec3<T> p0, Vec3<T> p1, Vec3<T> p2, 
   using namespace triangle_box_detail;
   const CenteredTriangle<T> t = center_on_box(p0, p1, p2, box_lo, box_hi, padding);
   // Box face normals first: the triangle's bounding box against the box, the cheapest test.
-  if (separated_along(Vec3<T>{T(1), T(0), T(0)}, t) ||
-      separated_along(Vec3<T>{T(0), T(1), T(0)}, t) ||
-      separated_along(Vec3<T>{T(0), T(0), T(1)}, t))
+  if (separated_along_unit<0>(t) || separated_along_unit<1>(t) || separated_along_unit<2>(t))
     return false;
   const Vec3<T> e0 = t.v1 - t.v0, e1 = t.v2 - t.v1, e2 = t.v0 - t.v2;
   // The triangle's plane against the box.

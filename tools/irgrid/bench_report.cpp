@@ -21,11 +21,17 @@ void print_bench_table(const BenchResult& r) {
       r.triangles ? double(r.build.memory_bytes) / double(r.triangles) : 0.0);
   fmt::print("machine: {}, {} threads{}\n", machine.cpu_model, machine.tbb_threads,
              machine.gpu.empty() ? "" : ", GPU " + machine.gpu);
-  fmt::print("{:>4}  {:<8} {:>10} {:>10} {:>10} {:>10} {:>9} {:>10}\n", "view", "kind", "rays",
-             "hits", "ms", "MRays/s", "checked", "mismatches");
-  for (const auto& run : r.runs)
-    fmt::print("{:>4}  {:<8} {:>10} {:>10} {:>10.2f} {:>10.2f} {:>9} {:>10}\n", run.view, run.kind,
-               run.rays, run.hits, run.median_ms, run.mrays_per_s, run.checked, run.mismatches);
+  fmt::print("{:>4}  {:<8} {:>10} {:>10} {:>10} {:>10} {:>9} {:>10} {:>11} {:>11}\n", "view",
+             "kind", "rays", "hits", "ms", "MRays/s", "checked", "mismatches", "cells/ray",
+             "tests/ray");
+  for (const auto& run : r.runs) {
+    const auto per_ray = [](double x) {
+      return x < 0 ? std::string("-") : fmt::format("{:.2f}", x);
+    };
+    fmt::print("{:>4}  {:<8} {:>10} {:>10} {:>10.2f} {:>10.2f} {:>9} {:>10} {:>11} {:>11}\n",
+               run.view, run.kind, run.rays, run.hits, run.median_ms, run.mrays_per_s, run.checked,
+               run.mismatches, per_ray(run.cells_per_ray), per_ray(run.tests_per_ray));
+  }
 }
 
 void print_comparison(const std::vector<BenchResult>& results) {
@@ -56,15 +62,17 @@ namespace {
 
 nlohmann::json result_json(const BenchResult& r) {
   nlohmann::json runs = nlohmann::json::array();
-  for (const auto& run : r.runs)
-    runs.push_back({{"kind", run.kind},
-                    {"view", run.view},
-                    {"rays", run.rays},
-                    {"hits", run.hits},
-                    {"median_ms", run.median_ms},
-                    {"mrays_per_s", run.mrays_per_s},
-                    {"checked", run.checked},
-                    {"mismatches", run.mismatches}});
+  for (const auto& run : r.runs) {
+    nlohmann::json entry = {{"kind", run.kind},           {"view", run.view},
+                            {"rays", run.rays},           {"hits", run.hits},
+                            {"median_ms", run.median_ms}, {"mrays_per_s", run.mrays_per_s},
+                            {"checked", run.checked},     {"mismatches", run.mismatches}};
+    if (run.cells_per_ray >= 0) {
+      entry["cells_per_ray"] = run.cells_per_ray;
+      entry["tests_per_ray"] = run.tests_per_ray;
+    }
+    runs.push_back(std::move(entry));
+  }
   return {{"scene", r.scene},
           {"triangles", r.triangles},
           {"backend", r.backend},

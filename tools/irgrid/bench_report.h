@@ -16,6 +16,9 @@ struct BenchRun {
   std::uint64_t rays = 0, hits = 0;
   double median_ms = 0, mrays_per_s = 0;
   std::uint64_t checked = 0, mismatches = 0;
+  /// Mean cells visited and triangles tested per ray (one counted pass, untimed); negative for
+  /// structures that do not count their work.
+  double cells_per_ray = -1, tests_per_ray = -1;
 };
 
 struct BenchResult {

@@ -112,6 +112,15 @@ BenchRun measure(const Scene& scene, const ReferenceTracer& reference,
       std::size_t(std::count_if(hits.begin(), hits.end(), [](const Hit& h) { return h.hit(); }));
   run.median_ms = median(times);
   run.mrays_per_s = run.median_ms > 0 ? double(run.rays) / run.median_ms / 1000.0 : 0.0;
+  if (accelerator.counts_work() && !rays.empty()) {
+    std::vector<RayWork> work(rays.size());
+    accelerator.trace_counted(rays, hits, work, query);
+    double cells = 0, tests = 0;
+    for (const RayWork& w : work)
+      cells += w.cells, tests += w.triangles;
+    run.cells_per_ray = cells / double(rays.size());
+    run.tests_per_ray = tests / double(rays.size());
+  }
   if (o.validate > 0) {
     const auto validation = validate_hits(reference, scene, rays, hits, query, o.validate);
     run.checked = validation.checked;
