@@ -41,10 +41,11 @@ IRGRID_HD inline T minus_product(T a, T b, T c) {
 
 /// Per-ray constants of the watertight test, as in the paper: the axis kz where the direction
 /// is largest, kx and ky the other two (swapped to keep the winding), and the shear
-/// x' = x[kx] - sx x[kz], y' = x[ky] - sy x[kz], z' = sz x[kz].
+/// x' = x[kx] - sx x[kz], y' = x[ky] - sy x[kz], z' = sz x[kz]. The origin is stored permuted,
+/// (org[kx], org[ky], org[kz]), so each triangle reads it without indexing.
 template <typename T>
 struct WatertightRay {
-  Vec3<T> org;
+  Vec3<T> org_k;
   int kx, ky, kz;
   T sx, sy, sz;
   T tmin, tmax;
@@ -53,7 +54,6 @@ struct WatertightRay {
 template <typename T>
 IRGRID_HD inline WatertightRay<T> make_watertight_ray(const Ray& ray) {
   WatertightRay<T> r;
-  r.org = Vec3<T>::from(ray.org);
   const Vec3<T> dir = Vec3<T>::from(ray.dir);
   const T ax = dir.x < 0 ? -dir.x : dir.x, ay = dir.y < 0 ? -dir.y : dir.y;
   const T az = dir.z < 0 ? -dir.z : dir.z;
@@ -68,6 +68,7 @@ IRGRID_HD inline WatertightRay<T> make_watertight_ray(const Ray& ray) {
   r.sx = dir[r.kx] / dir[r.kz];
   r.sy = dir[r.ky] / dir[r.kz];
   r.sz = T(1) / dir[r.kz];
+  r.org_k = {T(ray.org[r.kx]), T(ray.org[r.ky]), T(ray.org[r.kz])};
   r.tmin = T(ray.tmin);
   r.tmax = T(ray.tmax);
   return r;
@@ -79,10 +80,9 @@ template <typename T>
 IRGRID_HD inline void shear_vertex(const WatertightRay<T>& r, const Vec3<T>& p, T& x, T& y, T& z) {
   // Vec3 is three consecutive T, so its coordinates can be addressed as an array.
   const T* c = &p.x;
-  const T* o = &r.org.x;
-  const T pz = c[r.kz] - o[r.kz];
-  x = minus_product(c[r.kx] - o[r.kx], r.sx, pz);
-  y = minus_product(c[r.ky] - o[r.ky], r.sy, pz);
+  const T pz = c[r.kz] - r.org_k.z;
+  x = minus_product(c[r.kx] - r.org_k.x, r.sx, pz);
+  y = minus_product(c[r.ky] - r.org_k.y, r.sy, pz);
   z = r.sz * pz;
 }
 
