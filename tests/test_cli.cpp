@@ -144,6 +144,18 @@ TEST_F(Cli, BenchValidatesAndWritesJson) {
   }
 }
 
+TEST_F(Cli, ThreadsOptionCapsTheThreadPool) {
+  const auto json_path = (dir / "one-thread.json").string();
+  const auto r =
+      run("--threads 1 bench builtin:cornell --kinds primary --views 0 --width 16 "
+          "--height 16 --repeat 1 --validate 50 --json " +
+          json_path);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find(", 1 threads"), std::string::npos) << r.out;
+  EXPECT_EQ(nlohmann::json::parse(read_text(json_path))["machine"]["threads"], 1);
+  EXPECT_EQ(run("--threads -2 info").code, 2);
+}
+
 TEST_F(Cli, BuildPrintsStatisticsAndJson) {
   const auto json_path = (dir / "build.json").string();
   const auto r = run("build builtin:cornell --lambda1 0.5 --lambda2 3 --json " + json_path);

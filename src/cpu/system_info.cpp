@@ -1,8 +1,10 @@
 // Version and machine description (CPU model, threads) for `irgrid info` and benchmark JSON.
+#include <algorithm>
 #include <fstream>
 #include <string>
 #include <thread>
 
+#include <tbb/global_control.h>
 #include <tbb/info.h>
 #include <tbb/task_arena.h>
 
@@ -35,7 +37,10 @@ MachineInfo machine_info() {
   MachineInfo info;
   info.cpu_model = cpu_model_name();
   info.hardware_threads = int(std::thread::hardware_concurrency());
-  info.tbb_threads = tbb::this_task_arena::max_concurrency();
+  // The arena's size ignores a global_control cap (irgrid --threads): report the smaller one.
+  info.tbb_threads = int(std::min<std::size_t>(
+      std::size_t(tbb::this_task_arena::max_concurrency()),
+      tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)));
   const auto cuda = cuda_status();
   if (!cuda.gpus.empty()) info.gpu = cuda.gpus.front().name;
   return info;

@@ -1,6 +1,9 @@
 // irgrid: the command-line tool. Errors go to stderr with exit code 2.
 #include <cstdio>
 #include <new>
+#include <optional>
+
+#include <tbb/global_control.h>
 
 #include <fmt/format.h>
 
@@ -14,6 +17,16 @@ int main(int argc, char** argv) {
       "Scenes: .obj or .ply files (optionally .gz/.xz) or builtin:NAME[:N]."};
   app.set_version_flag("--version", irgrid::version());
   app.require_subcommand(1, 1);
+  // Lives until the command has run: every TBB pool (ours, Embree's) is capped while it exists.
+  std::optional<tbb::global_control> thread_cap;
+  app.add_option_function<int>(
+         "--threads",
+         [&](int threads) {
+           if (threads > 0)
+             thread_cap.emplace(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+         },
+         "CPU threads for builds and traces (default: all hardware threads)")
+      ->check(CLI::NonNegativeNumber);
   irgrid::cli::add_info_command(app);
   irgrid::cli::add_build_command(app);
   irgrid::cli::add_rays_command(app);
