@@ -129,6 +129,22 @@ TEST(GridTraversal, AdversarialRaysOnBuiltinScenes) {
   }
 }
 
+TEST(GridTraversal, RaysWithExtremeDirectionComponents) {
+  // Tiny, subnormal and huge direction components: plane times that underflow or overflow must
+  // neither stall the walk nor send it off the ray's path.
+  for (const char* spec : {"builtin:cornell", "builtin:teapot-stadium:3000"}) {
+    const Scene scene = load_scene(spec);
+    std::vector<Ray> rays = random_rays(scene.bounds(), 600, 17);
+    const float extremes[] = {1e-30f, -1e-39f, 1e-45f, 3e30f, -3e38f};
+    for (std::size_t i = 0; i < rays.size(); ++i) {
+      rays[i].dir[i % 3] = extremes[i % 5];
+      if (i % 4 == 0) rays[i].dir[(i + 1) % 3] = extremes[(i / 5) % 5];
+    }
+    expect_exact(scene, "irregular", {}, rays, spec);
+    expect_exact(scene, "brute", {}, rays, spec);
+  }
+}
+
 TEST(GridTraversal, DegenerateScenes) {
   const std::vector<std::pair<std::string, std::vector<std::array<Vec3f, 3>>>> scenes = {
       {"one triangle", {{{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}}}},

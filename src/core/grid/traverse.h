@@ -69,9 +69,9 @@ IRGRID_HD inline void clip_to_grid(const GridInfo& info, const Ray& ray, const V
 /// crossed at t = v * t_per_voxel + t_at_plane0, one multiply and one add per axis and step.
 struct WalkRay {
   float org[3];          ///< origin in voxels
-  float dir[3];          ///< voxels per unit of t; 0 where the ray is parallel (or the axis flat)
-  float t_per_voxel[3];  ///< 1 / dir, or 0 where dir is 0
-  float t_at_plane0[3];  ///< t of plane 0, -org / dir, or +infinity where dir is 0
+  float dir[3];          ///< the ray's direction (world units), 0 where parallel or flat
+  float t_per_voxel[3];  ///< voxel_size / ray.dir, or 0 where parallel
+  float t_at_plane0[3];  ///< t of plane 0, (box_lo - ray.org) / ray.dir, or +infinity
   bool ascending[3];     ///< dir >= 0: the walk leaves cells through their hi planes
 };
 
@@ -79,16 +79,27 @@ IRGRID_HD inline WalkRay make_walk_ray(const GridInfo& info, const Ray& ray) {
   WalkRay w;
   for (int a = 0; a < 3; ++a) {
     w.org[a] = (ray.org[a] - info.box_lo[a]) * info.inv_voxel_size[a];
-    w.dir[a] = ray.dir[a] * info.inv_voxel_size[a];
-    const float inv = 1.f / w.dir[a];
-    // A direction too small for its reciprocal never crosses a plane within the grid's t range.
-    const bool parallel = !(inv > -INFINITY && inv < INFINITY);
+    w.dir[a] = ray.dir[a];
+    // The plane terms come from world values, so a huge direction cannot overflow them.
+    const float t_per_voxel = info.voxel_size[a] / ray.dir[a];
+    const float t_at_plane0 = (info.box_lo[a] - ray.org[a]) / ray.dir[a];
+    // Parallel: a zero direction or a flat axis, or plane times beyond float range (a direction
+    // too small to cross a voxel, or a plane too far away, within any representable t).
+    const bool parallel = ray.dir[a] == 0.f || info.inv_voxel_size[a] == 0.f ||
+                          !(t_per_voxel > -INFINITY && t_per_voxel < INFINITY) ||
+                          !(t_at_plane0 > -INFINITY && t_at_plane0 < INFINITY);
     if (parallel) w.dir[a] = 0.f;
-    w.t_per_voxel[a] = parallel ? 0.f : inv;
-    w.t_at_plane0[a] = parallel ? float(INFINITY) : -w.org[a] * inv;
+    w.t_per_voxel[a] = parallel ? 0.f : t_per_voxel;
+    w.t_at_plane0[a] = parallel ? float(INFINITY) : t_at_plane0;
     w.ascending[a] = !(w.dir[a] < 0.f);
   }
   return w;
+}
+
+/// The walk's position at t on axis a, in voxels. The world displacement t x dir comes first: a
+/// direction near the float limit would overflow in voxel units.
+IRGRID_HD inline float walk_position(const GridInfo& info, const WalkRay& walk, int a, float t) {
+  return walk.org[a] + (t * walk.dir[a]) * info.inv_voxel_size[a];
 }
 
 /// The voxel holding the walk position `p` (voxel units) on axis `a`, clamped to the grid; NaN
@@ -111,8 +122,9 @@ IRGRID_HD inline Hit traverse_grid(const GridView& grid, const Ray& ray,
   const WalkRay walk = make_walk_ray(grid.info, ray);
   Voxel voxel;
   for (int a = 0; a < 3; ++a)
-    voxel[a] = voxel_at(grid.info, a,
-                        walk.dir[a] == 0.f ? walk.org[a] : walk.org[a] + t_enter * walk.dir[a]);
+    voxel[a] =
+        voxel_at(grid.info, a,
+                 walk.dir[a] == 0.f ? walk.org[a] : walk_position(grid.info, walk, a, t_enter));
   const CellT* cells = cell_array<CellT>(grid);
   while (true) {
     const Cell cell = load_cell(cells, lookup_cell(grid.info, grid.entries, voxel));
@@ -149,7 +161,7 @@ IRGRID_HD inline Hit traverse_grid(const GridView& grid, const Ray& ray,
         v = walk.ascending[a] ? far[a] : far[a] - 1;
         inside &= std::uint32_t(v) < std::uint32_t(grid.info.virtual_dims[a]);
       } else {
-        v = voxel_at(grid.info, a, walk.org[a] + t_exit * walk.dir[a]);
+        v = voxel_at(grid.info, a, walk_position(grid.info, walk, a, t_exit));
         v = walk.ascending[a] ? (v < voxel[a] ? voxel[a] : (v >= far[a] ? far[a] - 1 : v))
                               : (v > voxel[a] ? voxel[a] : (v < far[a] ? far[a] : v));
       }
