@@ -70,19 +70,21 @@ IRGRID_HD inline void clip_to_grid(const GridInfo& info, const Ray& ray, const V
 struct WalkRay {
   float org[3];          ///< origin in voxels
   float dir[3];          ///< the ray's direction (world units), 0 where parallel or flat
-  float t_per_voxel[3];  ///< voxel_size / ray.dir, or 0 where parallel
-  float t_at_plane0[3];  ///< t of plane 0, (box_lo - ray.org) / ray.dir, or +infinity
+  float t_per_voxel[3];  ///< voxel_size x (1 / ray.dir), or 0 where parallel
+  float t_at_plane0[3];  ///< t of plane 0, (box_lo - ray.org) x (1 / ray.dir), or +infinity
   bool ascending[3];     ///< dir >= 0: the walk leaves cells through their hi planes
 };
 
-IRGRID_HD inline WalkRay make_walk_ray(const GridInfo& info, const Ray& ray) {
+/// inv_dir holds 1 / ray.dir per axis (shared with clip_to_grid: no divisions here).
+IRGRID_HD inline WalkRay make_walk_ray(const GridInfo& info, const Ray& ray,
+                                       const Vec3<float>& inv_dir) {
   WalkRay w;
   for (int a = 0; a < 3; ++a) {
     w.org[a] = (ray.org[a] - info.box_lo[a]) * info.inv_voxel_size[a];
     w.dir[a] = ray.dir[a];
     // The plane terms come from world values, so a huge direction cannot overflow them.
-    const float t_per_voxel = info.voxel_size[a] / ray.dir[a];
-    const float t_at_plane0 = (info.box_lo[a] - ray.org[a]) / ray.dir[a];
+    const float t_per_voxel = info.voxel_size[a] * inv_dir[a];
+    const float t_at_plane0 = (info.box_lo[a] - ray.org[a]) * inv_dir[a];
     // Parallel: a zero direction or a flat axis, or plane times beyond float range (a direction
     // too small to cross a voxel, or a plane too far away, within any representable t).
     const bool parallel = ray.dir[a] == 0.f || info.inv_voxel_size[a] == 0.f ||
@@ -119,7 +121,7 @@ IRGRID_HD inline Hit traverse_grid(const GridView& grid, const Ray& ray,
   clip_to_grid(grid.info, ray, inv_dir, t_enter, t_leave);
   if (!(t_enter <= t_leave)) return Hit{};
   const auto shear = make_watertight_ray<float>(ray);
-  const WalkRay walk = make_walk_ray(grid.info, ray);
+  const WalkRay walk = make_walk_ray(grid.info, ray, inv_dir);
   Voxel voxel;
   for (int a = 0; a < 3; ++a)
     voxel[a] =
