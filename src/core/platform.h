@@ -9,6 +9,15 @@
 #define IRGRID_DEVICE
 #endif
 
+// Inlining the compiler must not decline: per-triangle and per-step helpers of hot loops.
+#if defined(__CUDACC__)
+#define IRGRID_ALWAYS_INLINE __forceinline__
+#elif defined(__GNUC__)
+#define IRGRID_ALWAYS_INLINE inline __attribute__((always_inline))
+#else
+#define IRGRID_ALWAYS_INLINE inline
+#endif
+
 #if defined(__CUDA_ARCH__)
 #define IRGRID_ON_DEVICE 1
 #else

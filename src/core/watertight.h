@@ -104,9 +104,10 @@ struct TriangleHit {
 /// the distance t satisfies r.tmin <= t <= r.tmax and t < t_limit. Degenerate triangles and rays
 /// in the triangle's plane never hit.
 template <typename T>
-IRGRID_HD inline bool intersect_watertight(const WatertightRay<T>& r, const Vec3<T>& p0,
-                                           const Vec3<T>& p1, const Vec3<T>& p2, T t_limit,
-                                           TriangleHit<T>& hit) {
+IRGRID_HD IRGRID_ALWAYS_INLINE bool intersect_watertight(const WatertightRay<T>& r,
+                                                         const Vec3<T>& p0, const Vec3<T>& p1,
+                                                         const Vec3<T>& p2, T t_limit,
+                                                         TriangleHit<T>& hit) {
   T a_x, a_y, a_z, b_x, b_y, b_z, c_x, c_y, c_z;
   shear_vertex(r, p0, a_x, a_y, a_z);
   shear_vertex(r, p1, b_x, b_y, b_z);
