@@ -91,19 +91,10 @@ struct Voxel {
   IRGRID_HD constexpr std::int32_t& operator[](int a) { return a == 0 ? x : (a == 1 ? y : z); }
 };
 
-/// World coordinate of the voxel boundary `v` on axis `a` (the same formula in build and
-/// traversal, so both see the same planes).
+/// World coordinate of the voxel boundary `v` on axis `a`, as the build places planes (the
+/// traversal works in voxel units; the insertion padding absorbs the difference in rounding).
 IRGRID_HD inline float voxel_to_world(const GridInfo& info, int a, std::int32_t v) {
   return info.box_lo[a] + float(v) * info.voxel_size[a];
-}
-
-/// The voxel holding world coordinate `x` on axis `a`, clamped to the grid.
-IRGRID_HD inline std::int32_t world_to_voxel(const GridInfo& info, int a, float x) {
-  const float f = (x - info.box_lo[a]) * info.inv_voxel_size[a];
-  const std::int32_t last = info.virtual_dims[a] - 1;
-  if (!(f > 0.f)) return 0;  // also NaN
-  if (f >= float(last)) return last;
-  return std::int32_t(f);
 }
 
 /// The cell owning voxel `v`: one dependent 4-byte read per map level.

@@ -123,7 +123,7 @@ IRGRID_HD inline Hit traverse_grid(const GridView& grid, const Ray& ray,
   const auto shear = make_watertight_ray<float>(ray);
   const WalkRay walk = make_walk_ray(grid.info, ray, inv_dir);
   Voxel voxel;
-  for (int a = 0; a < 3; ++a)
+  for (int a = 0; a < 3; ++a)  // a parallel axis stays at the origin (t_enter may be infinite)
     voxel[a] =
         voxel_at(grid.info, a,
                  walk.dir[a] == 0.f ? walk.org[a] : walk_position(grid.info, walk, a, t_enter));
