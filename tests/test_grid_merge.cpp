@@ -304,6 +304,20 @@ TEST_P(GridMerge, MergingTheOctreeFormMapThenCompactingGivesTheSameCells) {
   }
 }
 
+// Merging skips the proposals of cells it knows to be quiet (merge.h). At alpha = 1 it runs
+// until a round merges nothing, so no cell may then have a merge left to propose along any axis.
+TEST_P(GridMerge, AtAlphaOneNoCellHasAMergeLeft) {
+  const Grid grid = merged_copy(merge_case(GetParam()).before, 1.f);
+  for (int axis = 0; axis < 3; ++axis)
+    for (std::uint32_t id = 0; id < grid.info.num_cells; ++id) {
+      std::uint32_t union_size = 0;
+      ASSERT_EQ(merge_detail::merge_partner(grid.info, grid.entries.data(), grid.cells.data(),
+                                            grid.refs.data(), id, axis, kCostRatio, union_size),
+                merge_detail::kNoCell)
+          << "cell " << id << " axis " << axis;
+    }
+}
+
 INSTANTIATE_TEST_SUITE_P(Builtin, GridMerge, ::testing::ValuesIn(kScenes), [](const auto& info) {
   std::string name = info.param.substr(8);
   for (char& c : name)

@@ -50,6 +50,15 @@ IRGRID_HD inline std::uint32_t atomic_add(std::uint32_t* target, std::uint32_t v
 #endif
 }
 
+/// Sets *target to *target & value atomically.
+IRGRID_HD inline void atomic_and(std::uint32_t* target, std::uint32_t value) {
+#if IRGRID_ON_DEVICE
+  atomicAnd(target, value);
+#else
+  std::atomic_ref<std::uint32_t>(*target).fetch_and(value, std::memory_order_relaxed);
+#endif
+}
+
 /// Sets *target to max(*target, value) atomically.
 IRGRID_HD inline void atomic_max(std::uint32_t* target, std::uint32_t value) {
 #if IRGRID_ON_DEVICE

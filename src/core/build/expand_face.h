@@ -84,7 +84,7 @@ IRGRID_HD inline std::int32_t growth_before_box(const GridInfo& info, const Cell
     const float first =
         floorf((box.lo[axis] - margin - info.box_lo[axis]) * info.inv_voxel_size[axis]);
     std::int32_t plane =
-        std::int32_t(fminf(fmaxf(first, float(face)), float(face + limit)));  // NaN -> face
+        std::int32_t(min_fast(max_fast(first, float(face)), float(face + limit)));  // NaN -> face
     while (plane > face && !(voxel_to_world(info, axis, plane) + margin < box.lo[axis]))
       --plane;
     return plane - face;
@@ -94,7 +94,7 @@ IRGRID_HD inline std::int32_t growth_before_box(const GridInfo& info, const Cell
   const float first =
       floorf((box.hi[axis] + margin - info.box_lo[axis]) * info.inv_voxel_size[axis]) + 1.f;
   std::int32_t plane =
-      std::int32_t(fmaxf(fminf(first, float(face)), float(face - limit)));  // NaN -> face
+      std::int32_t(max_fast(min_fast(first, float(face)), float(face - limit)));  // NaN -> face
   while (plane < face && !(voxel_to_world(info, axis, plane) - margin > box.hi[axis]))
     ++plane;
   return face - plane;

@@ -13,6 +13,13 @@
 //   * a cell at odd distance is absorbed by its predecessor and proposes nothing itself.
 // This is exactly the pairing of the serial walk (positions 0+1, 2+3, ...), so the result does
 // not depend on the order in which threads run, and every pass is a plain for_each.
+//
+// Later rounds merge few cells, so most proposals would be recomputed from unchanged inputs. A
+// cell's proposal along an axis depends only on the cell and on the owner of the voxel past its
+// upper face, and it can only name a cell whose lower corner lies just past that face. So a
+// cell that proposed nothing stays quiet along that axis until it is itself merged, or a new
+// (merged) cell appears whose lower corner is the voxel next to it: the merge step wakes the
+// owner of the voxel below each new cell's corner, per axis. Quiet cells skip the proposal.
 #pragma once
 
 #include <cmath>
@@ -72,18 +79,24 @@ IRGRID_HD inline std::uint32_t merge_partner(const GridInfo& info, const Entry* 
 }
 
 /// Proposals of one sweep: next[c] (kNoCell if none), union_size[c] and prev[next[c]] = c (a
-/// cell has at most one aligned predecessor, so that write has a single writer). Returns the
-/// number of proposals.
+/// cell has at most one aligned predecessor, so that write has a single writer). quiet[c] holds
+/// one bit per axis: set, c is known to propose nothing along it and is skipped; a cell found to
+/// propose nothing gets the bit. Returns the number of proposals.
 template <typename Exec>
 std::uint32_t propose_merges(Exec& exec, const GridArrays<Exec>& grid, int axis, float cost_ratio,
-                             std::uint32_t* next, std::uint32_t* prev, std::uint32_t* union_size) {
+                             std::uint32_t* next, std::uint32_t* prev, std::uint32_t* union_size,
+                             std::uint32_t* quiet, bool track) {
   const GridInfo info = grid.info;
   const Entry* entries = grid.entries.data();
   const Cell* cells = grid.cells.data();
   const std::uint32_t* refs = grid.refs.data();
+  const std::uint32_t bit = 1u << axis;
   exec.for_each("merge propose", info.num_cells, [=] IRGRID_HD(std::size_t i) {
     std::uint32_t size = 0;
-    next[i] = merge_partner(info, entries, cells, refs, std::uint32_t(i), axis, cost_ratio, size);
+    next[i] = (quiet[i] & bit) != 0 ? kNoCell
+                                    : merge_partner(info, entries, cells, refs, std::uint32_t(i),
+                                                    axis, cost_ratio, size);
+    if (track && next[i] == kNoCell) quiet[i] |= bit;
     union_size[i] = size;
     prev[i] = kNoCell;
   });
@@ -132,10 +145,13 @@ typename Exec::template Buffer<std::uint8_t> chain_parity(Exec& exec, const std:
 }
 
 /// Turns the resolved pairs into new cells and references, scans giving the new cell ids and
-/// reference offsets, and points every leaf of the voxel map at its new cell.
+/// reference offsets, and points every leaf of the voxel map at its new cell. `quiet` (one entry
+/// per cell, see propose_merges) is carried over to the new cells: cleared for merged cells and,
+/// when `track` is set, for the cells below a merged cell's lower corner.
 template <typename Exec>
 void apply_merges(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
-                  const std::uint32_t* union_size, const std::uint8_t* parity) {
+                  const std::uint32_t* union_size, const std::uint8_t* parity,
+                  typename Exec::template Buffer<std::uint32_t>& quiet, bool track) {
   const std::uint32_t n = grid.info.num_cells;
   const Cell* cells = grid.cells.data();
   const std::uint32_t* refs = grid.refs.data();
@@ -157,8 +173,11 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
   auto merged_cells = exec.template allocate<Cell>(num_cells);
   auto merged_refs = exec.template allocate<std::uint32_t>(num_refs);
   auto remap_buffer = exec.template allocate<std::uint32_t>(n);
+  auto merged_quiet = exec.template allocate<std::uint32_t>(num_cells);
   Cell* out_cells = merged_cells.data();
   std::uint32_t *out_refs = merged_refs.data(), *remap = remap_buffer.data();
+  const std::uint32_t* old_quiet = quiet.data();
+  std::uint32_t* new_quiet = merged_quiet.data();
   // One thread per surviving cell writes its box and list (the paper copies unmerged lists
   // warp-cooperatively; a CUDA executor may want that for load balance).
   exec.for_each("merge write", n, [=] IRGRID_HD(std::size_t i) {
@@ -181,11 +200,25 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
     merged.begin = begin;
     merged.end = begin + count;
     out_cells[id] = merged;
+    new_quiet[id] = next[i] != kNoCell ? 0u : old_quiet[i];
   });
   Entry* entries = grid.entries.data();
   exec.for_each("merge remap entries", grid.info.num_entries, [=] IRGRID_HD(std::size_t i) {
     if (entries[i].log_dim() == 0) entries[i] = Entry::leaf(remap[entries[i].index()]);
   });
+  const GridInfo info = grid.info;
+  if (track)
+    exec.for_each("merge wake neighbours", n, [=] IRGRID_HD(std::size_t i) {
+      if (parity[i] != 0 || next[i] == kNoCell) return;
+      const Cell m = out_cells[new_id[i]];
+      for (int axis = 0; axis < 3; ++axis) {
+        if (m.lo[axis] == 0) continue;
+        Voxel below{m.lo[0], m.lo[1], m.lo[2]};
+        below[axis] = m.lo[axis] - 1;
+        atomic_and(&new_quiet[lookup_cell(info, entries, below)], ~(1u << axis));
+      }
+    });
+  quiet = std::move(merged_quiet);
   grid.cells = std::move(merged_cells);
   grid.refs = std::move(merged_refs);
   grid.info.num_cells = num_cells;
@@ -195,16 +228,17 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
 /// One sweep along `axis`: proposals, chain resolution, rebuild. Leaves the grid untouched when
 /// no cell proposes.
 template <typename Exec>
-void merge_sweep(Exec& exec, GridArrays<Exec>& grid, int axis, float cost_ratio) {
+void merge_sweep(Exec& exec, GridArrays<Exec>& grid, int axis, float cost_ratio,
+                 typename Exec::template Buffer<std::uint32_t>& quiet, bool track) {
   const std::uint32_t n = grid.info.num_cells;
   auto next = exec.template allocate<std::uint32_t>(n);
   auto prev = exec.template allocate<std::uint32_t>(n);
   auto union_size = exec.template allocate<std::uint32_t>(n);
-  if (propose_merges(exec, grid, axis, cost_ratio, next.data(), prev.data(), union_size.data()) ==
-      0)
+  if (propose_merges(exec, grid, axis, cost_ratio, next.data(), prev.data(), union_size.data(),
+                     quiet.data(), track) == 0)
     return;
   const auto parity = chain_parity(exec, prev.data(), n);
-  apply_merges(exec, grid, next.data(), union_size.data(), parity.data());
+  apply_merges(exec, grid, next.data(), union_size.data(), parity.data(), quiet, track);
 }
 
 }  // namespace merge_detail
@@ -227,10 +261,16 @@ void merge_cells(Exec& exec, GridArrays<Exec>& grid, float alpha, float cost_rat
     throw Error(ErrorCode::invalid_argument,
                 "cost_ratio = " + std::to_string(cost_ratio) + " must be a number >= 0");
   if (!(alpha > 0)) return;
-  for (;;) {
+  auto quiet = exec.template allocate<std::uint32_t>(grid.info.num_cells);
+  std::uint32_t* d_quiet = quiet.data();
+  exec.for_each("merge quiet init", grid.info.num_cells,
+                [=] IRGRID_HD(std::size_t i) { d_quiet[i] = 0; });
+  // The first round merges most cells: waking their neighbours would cost more than the
+  // proposals it saves in the second round, so quiet cells are tracked from the second on.
+  for (bool track = false;; track = true) {
     const std::uint32_t before = grid.info.num_cells;
     for (int axis = 0; axis < 3; ++axis)
-      merge_detail::merge_sweep(exec, grid, axis, cost_ratio);
+      merge_detail::merge_sweep(exec, grid, axis, cost_ratio, quiet, track);
     const std::uint32_t after = grid.info.num_cells;
     if (after == before || double(after) >= double(alpha) * double(before)) break;
   }
