@@ -138,7 +138,7 @@ IRGRID_HD inline bool separated_along_unit(const CenteredTriangle<T>& t) {
 
 /// The three axes edge x (unit box edge along x, y, z), written out: no rounding at all.
 template <typename T>
-IRGRID_HD inline bool edge_separates(Vec3<T> edge, const CenteredTriangle<T>& t) {
+IRGRID_HD IRGRID_ALWAYS_INLINE bool edge_separates(Vec3<T> edge, const CenteredTriangle<T>& t) {
   return separated_along<0>(Vec3<T>{T(0), edge.z, -edge.y}, t) ||
          separated_along<1>(Vec3<T>{-edge.z, T(0), edge.x}, t) ||
          separated_along<2>(Vec3<T>{edge.y, -edge.x, T(0)}, t);
@@ -153,8 +153,9 @@ IRGRID_HD inline bool edge_separates(Vec3<T> edge, const CenteredTriangle<T>& t)
 /// are apart by a few units in the last place of their coordinates relative to the box centre.
 /// Requires box_lo <= box_hi.
 template <typename T>
-IRGRID_HD inline bool triangle_overlaps_box(Vec3<T> p0, Vec3<T> p1, Vec3<T> p2, Vec3<T> box_lo,
-                                            Vec3<T> box_hi, T padding) {
+IRGRID_HD IRGRID_ALWAYS_INLINE bool triangle_overlaps_box(Vec3<T> p0, Vec3<T> p1, Vec3<T> p2,
+                                                          Vec3<T> box_lo, Vec3<T> box_hi,
+                                                          T padding) {
   using namespace triangle_box_detail;
   const CenteredTriangle<T> t = center_on_box(p0, p1, p2, box_lo, box_hi, padding);
   // Box face normals first: the triangle's bounding box against the box, the cheapest test.
