@@ -68,6 +68,8 @@ typename Exec::template Buffer<std::uint32_t> sort_references(Exec& exec, RefPai
 }
 
 /// Turns the octree levels into the final arrays (cells, sorted references, octree voxel map).
+/// Consumes the levels: each part is freed once copied, so the build's later phases do not
+/// hold the grid twice (`levels` keeps only its counts).
 template <typename Exec>
 void assemble_grid(Exec& exec, OctreeLevels<Exec>& levels, GridArrays<Exec>& grid) {
   grid.entries =
@@ -79,16 +81,22 @@ void assemble_grid(Exec& exec, OctreeLevels<Exec>& levels, GridArrays<Exec>& gri
     offset += std::uint32_t(level.size());
   }
   grid.level_offsets.push_back(offset);
+  levels.entries.clear();
   grid.cells = concatenate<Exec, Cell>(exec, "concatenate cells", levels.cells, levels.num_cells);
+  levels.cells.clear();
   std::vector<typename Exec::template Buffer<std::uint32_t>> cell_parts, tri_parts;
   for (auto& part : levels.pairs) {
     cell_parts.push_back(std::move(part.cell));
     tri_parts.push_back(std::move(part.tri));
   }
-  RefPairs<Exec> pairs{
-      concatenate<Exec, std::uint32_t>(exec, "concatenate pairs", cell_parts, levels.num_refs),
-      concatenate<Exec, std::uint32_t>(exec, "concatenate pairs", tri_parts, levels.num_refs),
-      levels.num_refs};
+  levels.pairs.clear();
+  RefPairs<Exec> pairs{{}, {}, levels.num_refs};
+  pairs.cell =
+      concatenate<Exec, std::uint32_t>(exec, "concatenate pairs", cell_parts, levels.num_refs);
+  cell_parts.clear();
+  pairs.tri =
+      concatenate<Exec, std::uint32_t>(exec, "concatenate pairs", tri_parts, levels.num_refs);
+  tri_parts.clear();
   grid.refs = sort_references(exec, pairs, grid.cells.data(), levels.num_cells);
   grid.info.num_cells = levels.num_cells;
   grid.info.num_refs = levels.num_refs;
