@@ -111,8 +111,10 @@ std::uint32_t propose_merges(Exec& exec, const GridArrays<Exec>& grid, int axis,
 
 /// Parity (0 even, 1 odd) of every cell's distance from the head of its proposal chain, by
 /// pointer jumping over prev: each pass adds the parity of the current ancestor and jumps to its
-/// ancestor, so ceil(log2(longest chain)) passes suffice. Passes read one pair of arrays and write
-/// the other, so no pass reads what it writes and the result is deterministic.
+/// ancestor, so ceil(log2(longest chain)) passes suffice. Only cells with a predecessor take part
+/// (a head's parity is 0), so later sweeps, with few proposals, touch few cells. Passes read one
+/// pair of arrays and write the other, so no pass reads what it writes and the result is
+/// deterministic; cells that do not take part hold the same values in both.
 template <typename Exec>
 typename Exec::template Buffer<std::uint8_t> chain_parity(Exec& exec, const std::uint32_t* prev,
                                                           std::uint32_t n) {
@@ -123,17 +125,22 @@ typename Exec::template Buffer<std::uint8_t> chain_parity(Exec& exec, const std:
   std::uint8_t *parity = parity_a.data(), *parity_next = parity_b.data();
   std::uint32_t *ancestor = ancestor_a.data(), *ancestor_next = ancestor_b.data();
   exec.for_each("merge rank init", n, [=] IRGRID_HD(std::size_t i) {
-    ancestor[i] = prev[i];
-    parity[i] = prev[i] != kNoCell;
+    ancestor[i] = ancestor_next[i] = prev[i];
+    parity[i] = parity_next[i] = prev[i] != kNoCell;
   });
+  std::uint32_t count = 0;
+  const auto members = select_indices(
+      exec, "merge rank members", n, [=] IRGRID_HD(std::uint32_t i) { return prev[i] != kNoCell; },
+      count);
+  const std::uint32_t* member = members.data();
   for (;;) {
     const std::uint32_t pending = exec.transform_reduce(
-        "merge rank check", n, std::uint32_t(0),
+        "merge rank check", count, std::uint32_t(0),
         [] IRGRID_HD(std::uint32_t x, std::uint32_t y) { return x + y; },
-        [=] IRGRID_HD(std::size_t i) { return std::uint32_t(ancestor[i] != kNoCell); });
+        [=] IRGRID_HD(std::size_t k) { return std::uint32_t(ancestor[member[k]] != kNoCell); });
     if (pending == 0) break;
-    exec.for_each("merge rank jump", n, [=] IRGRID_HD(std::size_t i) {
-      const std::uint32_t up = ancestor[i];
+    exec.for_each("merge rank jump", count, [=] IRGRID_HD(std::size_t k) {
+      const std::uint32_t i = member[k], up = ancestor[i];
       parity_next[i] = up == kNoCell ? parity[i] : std::uint8_t(parity[i] ^ parity[up]);
       ancestor_next[i] = up == kNoCell ? kNoCell : ancestor[up];
     });
