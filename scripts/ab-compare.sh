@@ -23,15 +23,14 @@ done
 command -v python3 >/dev/null || { echo "ab-compare: needs python3" >&2; exit 2; }
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
+binary_of() { if [ "$1" = A ]; then echo "$a"; else echo "$b"; fi; }
 
 case "$mode" in
 time)
   for round in $(seq "$rounds"); do
     for side in A B; do
-      binary=$a
-      [ "$side" = B ] && binary=$b
       echo "ab-compare: round $round/$rounds, $side" >&2
-      "$binary" --threads "$threads" bench "$scene" --width 384 --height 384 --spp 1 --repeat 5 \
+      "$(binary_of "$side")" --threads "$threads" bench "$scene" --width 384 --height 384 --spp 1 --repeat 5 \
         --validate 1000 --json "$work/$side-$round.json" >/dev/null 2>"$work/$side-$round.log" ||
         { cat "$work/$side-$round.log" >&2; exit 1; }
     done
@@ -62,11 +61,10 @@ EOF
 instructions)
   command -v valgrind >/dev/null || { echo "ab-compare: needs valgrind" >&2; exit 2; }
   for side in A B; do
-    binary=$a
-    [ "$side" = B ] && binary=$b
     echo "ab-compare: callgrind, $side (a few minutes)" >&2
-    valgrind --tool=callgrind --callgrind-out-file="$work/$side.out" "$binary" --threads 1 build \
-      "$scene" >/dev/null 2>"$work/$side.log" || { tail -5 "$work/$side.log" >&2; exit 1; }
+    valgrind --tool=callgrind --callgrind-out-file="$work/$side.out" "$(binary_of "$side")" \
+      --threads 1 build "$scene" >/dev/null 2>"$work/$side.log" ||
+      { tail -5 "$work/$side.log" >&2; exit 1; }
     callgrind_annotate --inclusive=yes "$work/$side.out" >"$work/$side.txt" 2>/dev/null
   done
   python3 - "$work" <<'EOF'

@@ -42,6 +42,20 @@ Result run(const std::string& args) {
           read_text(dir / "stderr")};
 }
 
+/// A run with `--json FILE` appended (FILE in the scratch directory), and the JSON it wrote
+/// (null when the run failed).
+struct JsonResult {
+  Result result;
+  nlohmann::json json;
+};
+
+JsonResult run_json(const std::string& args, const std::string& file) {
+  const auto path = (scratch_dir() / file).string();
+  JsonResult r{run(args + " --json " + path), nullptr};
+  if (r.result.code == 0) r.json = nlohmann::json::parse(read_text(path));
+  return r;
+}
+
 class Cli : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -127,13 +141,10 @@ TEST_F(Cli, TraceReadsHagridRaysWithGivenInterval) {
 }
 
 TEST_F(Cli, BenchValidatesAndWritesJson) {
-  const auto json_path = (dir / "bench.json").string();
-  const auto r =
-      run("bench builtin:cornell --structure brute --width 24 --height 16 --repeat 2 "
-          "--validate 200 --json " +
-          json_path);
+  const auto [r, json] = run_json(
+      "bench builtin:cornell --structure brute --width 24 --height 16 --repeat 2 --validate 200",
+      "bench.json");
   ASSERT_EQ(r.code, 0) << r.err;
-  const auto json = nlohmann::json::parse(read_text(json_path));
   for (const char* key : {"scene", "triangles", "backend", "structure", "build_ms",
                           "build_phases_ms", "memory_bytes", "machine", "runs"})
     EXPECT_TRUE(json.contains(key)) << key;
@@ -145,23 +156,20 @@ TEST_F(Cli, BenchValidatesAndWritesJson) {
 }
 
 TEST_F(Cli, ThreadsOptionCapsTheThreadPool) {
-  const auto json_path = (dir / "one-thread.json").string();
-  const auto r =
-      run("--threads 1 bench builtin:cornell --kinds primary --views 0 --width 16 "
-          "--height 16 --repeat 1 --validate 50 --json " +
-          json_path);
+  const auto [r, json] = run_json(
+      "--threads 1 bench builtin:cornell --kinds primary --views 0 --width 16 --height 16 "
+      "--repeat 1 --validate 50",
+      "one-thread.json");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find(", 1 threads"), std::string::npos) << r.out;
-  EXPECT_EQ(nlohmann::json::parse(read_text(json_path))["machine"]["threads"], 1);
+  EXPECT_EQ(json["machine"]["threads"], 1);
   EXPECT_EQ(run("--threads -2 info").code, 2);
 }
 
 TEST_F(Cli, BuildPrintsStatisticsAndJson) {
-  const auto json_path = (dir / "build.json").string();
-  const auto r = run("build builtin:cornell --lambda1 0.5 --lambda2 3 --json " + json_path);
+  const auto [r, json] = run_json("build builtin:cornell --lambda1 0.5 --lambda2 3", "build.json");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("cells"), std::string::npos);
-  const auto json = nlohmann::json::parse(read_text(json_path));
   EXPECT_EQ(json["structure"], "irregular");
   EXPECT_GT(json["counts"]["cells"].get<int>(), 0);
   EXPECT_FLOAT_EQ(json["config"]["lambda1"].get<float>(), 0.5f);
@@ -170,14 +178,12 @@ TEST_F(Cli, BuildPrintsStatisticsAndJson) {
 }
 
 TEST_F(Cli, CompareRunsEveryStructureOnTheSameRays) {
-  const auto json_path = (dir / "compare.json").string();
-  const auto r =
-      run("bench builtin:cornell --compare all --kinds primary,ao --views 0 --width 16 "
-          "--height 16 --repeat 1 --validate 100 --json " +
-          json_path);
+  const auto [r, json] = run_json(
+      "bench builtin:cornell --compare all --kinds primary,ao --views 0 --width 16 --height 16 "
+      "--repeat 1 --validate 100",
+      "compare.json");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("comparison"), std::string::npos);
-  const auto json = nlohmann::json::parse(read_text(json_path));
   ASSERT_GE(json["compare"].size(), 3u);  // irregular, two-level, uniform (+ embree)
   for (const auto& result : json["compare"]) {
     ASSERT_EQ(result["runs"].size(), 2u);
