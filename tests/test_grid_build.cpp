@@ -167,6 +167,63 @@ TEST(GridLimits, ClearyResolutionIsTheFloorOfExtentOverSide) {
   }
 }
 
+std::uint32_t most_references_per_cell(const GridArrays<CpuExecutor>& grid) {
+  std::uint32_t most = 0;
+  for (const Cell& c : grid.cells)
+    most = std::max(most, c.end - c.begin);
+  return most;
+}
+
+TEST(OctreeSplit, NodesAboveTheThresholdSplitWhileItSeparatesTheirTriangles) {
+  // The teapot shares its top cell with large floor triangles, so the paper's one depth per top
+  // cell leaves hundreds of references in its cells (docs/benchmarks.md).
+  const Scene scene = load_scene("builtin:teapot-stadium:4000");
+  BuildConfig paper = testing::initial_grid_config();
+  paper.split_refs = 0;
+  const auto paper_grid = build_test_grid(scene, paper);
+  ASSERT_GT(most_references_per_cell(paper_grid), 200u);
+
+  BuildConfig by_count = testing::initial_grid_config();
+  by_count.split_refs = 32;
+  const auto grid = build_test_grid(scene, by_count);
+  const std::int32_t compact_depth = compact_octree_depth(grid.info);
+  EXPECT_GE(grid.info.shift, compact_depth);
+  EXPECT_TRUE(fits_compact_cells(grid.info)) << "the count rule alone keeps cells compressible";
+  const OctreeRule rule{nullptr, false, by_count.split_refs, compact_depth};
+  const std::int32_t finest = std::int32_t(1) << (grid.info.shift - compact_depth);
+  std::size_t above = 0;
+  for (const Cell& c : grid.cells) {
+    const std::uint32_t refs = c.end - c.begin;
+    if (refs <= by_count.split_refs) continue;
+    // A cell still above the threshold is at the compact depth, or a node whose split into
+    // octants would not have separated its triangles.
+    ++above;
+    const std::int32_t size = c.hi[0] - c.lo[0];
+    if (size <= finest) continue;
+    std::uint32_t child_refs = 0;
+    for (std::uint32_t r = c.begin; r < c.end; ++r)
+      child_refs += popcount8(child_overlap_mask(grid.info, {c.lo[0], c.lo[1], c.lo[2]}, size / 2,
+                                                 grid.triangles[grid.refs[r]]));
+    EXPECT_FALSE(rule.count_split_pays(refs, child_refs))
+        << "cell of " << refs << " references, " << size << " voxels wide";
+  }
+  EXPECT_LT(above, grid.cells.size() / 100);
+  EXPECT_LT(most_references_per_cell(grid), most_references_per_cell(paper_grid) / 2);
+}
+
+TEST(OctreeSplit, ThresholdAboveEveryCountGivesThePaperGrid) {
+  const Scene scene = load_scene("builtin:sphere:2000");
+  BuildConfig paper = testing::initial_grid_config();
+  paper.split_refs = 0;
+  BuildConfig unreachable = paper;
+  unreachable.split_refs = 1u << 30;
+  const auto a = build_test_grid(scene, paper), b = build_test_grid(scene, unreachable);
+  EXPECT_EQ(a.info.shift, b.info.shift);
+  ASSERT_EQ(a.cells.size(), b.cells.size());
+  EXPECT_EQ(0, std::memcmp(a.cells.data(), b.cells.data(), a.cells.size() * sizeof(Cell)));
+  EXPECT_EQ(a.refs.size(), b.refs.size());
+}
+
 TEST(GridLimits, InvalidParametersNameTheValue) {
   const Scene scene = load_scene("builtin:cube");
   BuildConfig config;

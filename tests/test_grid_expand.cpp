@@ -12,6 +12,7 @@
 #include <cstring>
 #include <limits>
 #include <map>
+#include <tuple>
 
 #include "core/build/expand.h"
 #include "core/grid/traverse.h"
@@ -33,24 +34,26 @@ const std::vector<std::string> kScenes = {"builtin:cornell", "builtin:teapot-sta
                                           "builtin:soup:3000", "builtin:hairball:5000",
                                           "builtin:sphere:2000"};
 
-/// The expansion settings under test: passes and partial expansion.
+/// The expansion settings under test: passes, partial expansion and its growth quantum.
 struct Setting {
   int passes;
   bool partial;
+  std::int32_t quantum = 1;
   bool operator<(const Setting& o) const {
-    return passes != o.passes ? passes < o.passes : partial < o.partial;
+    return std::tie(passes, partial, quantum) < std::tie(o.passes, o.partial, o.quantum);
   }
   std::string name() const {
     return std::to_string(passes) + (passes == 1 ? " pass" : " passes") +
-           (partial ? ", partial" : ", subset only");
+           (partial ? ", partial" : ", subset only") +
+           (quantum > 1 ? " in steps of " + std::to_string(quantum) : "");
   }
 };
-const std::vector<Setting> kSettings = {{1, false}, {1, true}, {3, false}, {3, true}};
+const std::vector<Setting> kSettings = {{1, false}, {1, true}, {3, false}, {3, true}, {3, true, 4}};
 
 Grid expanded_copy(const Grid& grid, Setting setting) {
   CpuExecutor exec;
   Grid copy = grid;
-  expand_cells(exec, copy, setting.passes, setting.partial);
+  expand_cells(exec, copy, setting.passes, setting.partial, setting.quantum);
   return copy;
 }
 

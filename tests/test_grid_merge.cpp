@@ -274,14 +274,9 @@ Grid build_octree_form_grid(const Scene& scene) {
     grid.triangles.push_back({Vec3<float>::from(scene.vertices[tri[0]]),
                               Vec3<float>::from(scene.vertices[tri[1]]),
                               Vec3<float>::from(scene.vertices[tri[2]])});
-  const BuildConfig config;
-  const auto count = std::uint32_t(grid.triangles.size());
-  grid.info = plan_top_grid(exec, grid.triangles.data(), count, config);
-  auto pairs = emit_top_level_refs(exec, grid.triangles.data(), grid.info);
-  const auto depths = top_cell_depths(exec, grid.info, pairs, config);
-  auto levels = build_octree_levels(exec, grid.info, grid.triangles.data(), std::move(pairs),
-                                    depths.data(), config.shape);
-  assemble_grid(exec, levels, grid);
+  std::map<std::string, double> phases_ms;
+  PhaseClock clock(exec, phases_ms);
+  build_initial_grid(exec, grid, BuildConfig{}, clock);
   return grid;
 }
 

@@ -34,6 +34,7 @@ nlohmann::json statistics_json(const Scene& scene, const Accelerator& accelerato
           {"config",
            {{"lambda1", grid.lambda1},
             {"lambda2", grid.lambda2},
+            {"split_refs", grid.split_refs},
             {"alpha", grid.alpha},
             {"cost_ratio", grid.cost_ratio},
             {"expansion_passes", grid.expansion_passes},

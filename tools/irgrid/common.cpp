@@ -45,6 +45,11 @@ void add_structure_options(CLI::App* command, StructureOptions& options) {
       ->capture_default_str()
       ->group("Grid");
   command
+      ->add_option("--split-refs", grid.split_refs,
+                   "Octree nodes holding more references split past their lambda2 depth (0: off)")
+      ->capture_default_str()
+      ->group("Grid");
+  command
       ->add_option("--alpha", grid.alpha,
                    "Merging stops when a sweep keeps alpha x the cells (<= 0: off)")
       ->capture_default_str()

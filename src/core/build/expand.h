@@ -26,9 +26,10 @@ namespace expand_detail {
 /// a later pass. The bits only save work: clearing one never makes the grid wrong.
 template <typename Exec>
 void expand_axis(Exec& exec, const GridArrays<Exec>& grid, Cell* out, std::uint8_t* can_grow,
-                 int axis, bool partial) {
+                 int axis, bool partial, std::int32_t growth_quantum) {
   const ExpandView view{grid.info,        grid.entries.data(),   grid.cells.data(),
-                        grid.refs.data(), grid.triangles.data(), partial};
+                        grid.refs.data(), grid.triangles.data(), partial,
+                        growth_quantum};
   const auto bit = std::uint8_t(1u << axis);
   exec.for_each("expand cells", grid.info.num_cells, [=] IRGRID_HD(std::size_t i) {
     Cell cell = view.cells[i];
@@ -50,7 +51,8 @@ void expand_axis(Exec& exec, const GridArrays<Exec>& grid, Cell* out, std::uint8
 
 /// Grows the exit boxes of all cells of `grid` in `passes` passes (x, y, z each; 0 or less:
 /// nothing), in place of grid.cells. With `partial`, a cell may also grow part-way into
-/// neighbours that hold triangles it does not list (not in the paper).
+/// neighbours that hold triangles it does not list (not in the paper), in steps of
+/// growth_quantum voxels (a power of two).
 ///
 /// Requires a valid grid: cells tile the virtual grid (their boxes may already be expanded exit
 /// boxes), every list sorted ascending and unique, the voxel map answering each voxel's owner,
@@ -59,7 +61,8 @@ void expand_axis(Exec& exec, const GridArrays<Exec>& grid, Cell* out, std::uint8
 /// and stays inside the grid; the voxel map, the references and the ranges are unchanged.
 /// Deterministic: the result depends on the inputs only, not on the number of threads.
 template <typename Exec>
-void expand_cells(Exec& exec, GridArrays<Exec>& grid, int passes, bool partial) {
+void expand_cells(Exec& exec, GridArrays<Exec>& grid, int passes, bool partial,
+                  std::int32_t growth_quantum = 1) {
   const std::uint32_t count = grid.info.num_cells;
   if (passes <= 0 || count == 0) return;
   auto back = exec.template allocate<Cell>(count);
@@ -68,7 +71,8 @@ void expand_cells(Exec& exec, GridArrays<Exec>& grid, int passes, bool partial) 
   exec.for_each("expand flags", count, [=] IRGRID_HD(std::size_t i) { d_can_grow[i] = 7; });
   for (int pass = 0; pass < passes; ++pass)
     for (int axis = 0; axis < 3; ++axis) {
-      expand_detail::expand_axis(exec, grid, back.data(), d_can_grow, axis, partial);
+      expand_detail::expand_axis(exec, grid, back.data(), d_can_grow, axis, partial,
+                                 growth_quantum);
       std::swap(grid.cells, back);  // the boxes just written are the next step's snapshot
     }
 }

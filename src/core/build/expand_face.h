@@ -14,9 +14,9 @@
 //   * subset mode (the paper): any extra triangle forbids growth through the whole face;
 //   * partial mode (not in the paper; the talk's slides report +10-20% traversal speed): an extra
 //     triangle only caps d so that S stays more than the padding away from the triangle's
-//     bounding box, along the axis of growth, or it is ignored when its box is more than the
-//     padding away from the face's cross-section. A triangle lies inside its box, so it then
-//     cannot come within the padding of S either.
+//     bounding box, along the axis of growth (rounded down to a multiple of the growth quantum),
+//     or it is ignored when its box is more than the padding away from the face's cross-section. A
+//     triangle lies inside its box, so it then cannot come within the padding of S either.
 // Comparisons use twice the padding: the float rounding of "coordinate ± 2 x padding" is far below
 // one padding (about 64 ulps of the scene's largest coordinate), so "apart by more than the
 // padding" holds exactly whenever the float comparison claims the doubled margin.
@@ -40,6 +40,7 @@ struct ExpandView {
   const std::uint32_t* refs;          ///< per-cell lists, sorted ascending and unique
   const TriangleVertices* triangles;  ///< for the boxes of extra triangles (partial mode)
   bool partial;                       ///< partial expansion on
+  std::int32_t growth_quantum;        ///< partial growth in multiples of this (a power of two)
 };
 
 /// Growth through one face.
@@ -118,8 +119,10 @@ IRGRID_HD inline std::int32_t growth_allowed_by_list(const ExpandView& view, con
       continue;
     }
     if (!view.partial) return 0;
-    limit =
+    const std::int32_t cap =
         growth_before_box(view.info, c, axis, direction, triangle_box(view.triangles[id]), limit);
+    // Rounding down only shrinks the slab, and a cap below one quantum ends the scan early.
+    if (cap < limit) limit = cap & ~(view.growth_quantum - 1);
   }
   return limit;
 }
