@@ -64,6 +64,9 @@ IRGRID_HD inline std::uint32_t child_overlap_mask(const GridInfo& info, Voxel lo
     if (box.hi[a] + info.padding < mid) mask &= ~upper_half[a];
     if (box.lo[a] - info.padding > mid) mask &= upper_half[a];
   }
+  // One child left: the triangle meets the node's padded box (it was kept there by the same
+  // conservative test), and every such point lies within that child's padded box.
+  if ((mask & (mask - 1)) == 0) return mask;
   for (std::uint32_t bit = 0; bit < 8; ++bit) {
     if (!(mask >> bit & 1)) continue;
     Vec3<float> box_lo, box_hi;
