@@ -480,6 +480,110 @@ TEST(TriangleBox, PaddingGrowsTheBox) {
   EXPECT_EQ(monotone_violations, 0);
 }
 
+// --- Octants: the shared-work test of the 8 children of a box ----------------------------------
+// The case's box becomes octant `bit` of a box twice its size, so the exact verdict of the case
+// is the verdict for that octant (its bounds are the case's bounds, copied).
+struct OctantCase {
+  Vec3<float> lo, mid, hi;
+  std::uint32_t bit;
+};
+
+OctantCase as_octant(const Case& c, std::uint32_t bit) {
+  OctantCase o{c.lo, {}, c.hi, bit};
+  for (int k = 0; k < 3; ++k) {
+    const float size = c.hi[k] - c.lo[k];
+    if (bit >> k & 1) {
+      o.mid[k] = c.lo[k];
+      o.lo[k] = c.lo[k] - size;
+    } else {
+      o.mid[k] = c.hi[k];
+      o.hi[k] = c.hi[k] + size;
+    }
+  }
+  return o;
+}
+
+template <typename T>
+std::uint32_t tested_octants(const Case& c, const OctantCase& o, int scale_exponent = 0) {
+  const auto at = [&](Vec3<float> v) {
+    return Vec3<T>{T(std::ldexp(T(v.x), scale_exponent)), T(std::ldexp(T(v.y), scale_exponent)),
+                   T(std::ldexp(T(v.z), scale_exponent))};
+  };
+  return octants_overlapped(at(c.p[0]), at(c.p[1]), at(c.p[2]), at(o.lo), at(o.mid), at(o.hi), T(0),
+                            0xFFu);
+}
+
+/// Tally of the octant test on each case placed as a random octant; the margin is taken over
+/// the whole box, since the shared frame is its centre.
+template <typename T>
+Tally octant_tally(const std::vector<Case>& cases, std::uint64_t seed, int scale_exponent = 0) {
+  Generator g(seed);
+  Tally t;
+  for (const Case& c : cases) {
+    const OctantCase o = as_octant(c, std::uint32_t(g.below(8)));
+    Case whole = c;
+    whole.lo = o.lo;
+    whole.hi = o.hi;
+    t.add((tested_octants<T>(c, o, scale_exponent) >> o.bit & 1) != 0, exact_overlap(c),
+          margin<T>(whole));
+  }
+  return t;
+}
+
+TEST(TriangleBox, OctantsMatchTheExactTest) {
+  const auto& sets = case_sets();
+  const Tally generic = octant_tally<float>(sets.generic, 5),
+              touching = octant_tally<float>(sets.near_touching, 6),
+              clear = octant_tally<float>(sets.clear_gap, 7),
+              generic_double = octant_tally<double>(sets.generic, 5),
+              touching_double = octant_tally<double>(sets.near_touching, 6);
+  generic.print("octants, generic, float");
+  touching.print("octants, near-touching, float");
+  clear.print("octants, moved out by 2^-10, float");
+  touching_double.print("octants, near-touching, double");
+  EXPECT_EQ(generic.false_negatives, 0);
+  EXPECT_EQ(touching.false_negatives, 0);
+  EXPECT_EQ(clear.false_negatives, 0);
+  EXPECT_EQ(generic_double.false_negatives, 0);
+  EXPECT_EQ(touching_double.false_negatives, 0);
+  EXPECT_LE(generic.false_positives, long(sets.generic.size()) / 10000);
+  EXPECT_EQ(generic_double.false_positives, 0);
+  EXPECT_EQ(touching.false_positives_beyond_margin, 0);
+  EXPECT_EQ(touching_double.false_positives_beyond_margin, 0);
+  EXPECT_EQ(clear.false_positives, 0);
+  for (const int exponent : {-90, -20, 20, 100}) {
+    const Tally scaled = octant_tally<float>(sets.near_touching, 8, exponent);
+    EXPECT_EQ(scaled.false_negatives, 0) << "scaled 2^" << exponent;
+  }
+}
+
+TEST(TriangleBox, OctantsAgreeWithTheSingleBoxTest) {
+  // Every octant of every generic case (all on the exact test's lattice), against the exact
+  // verdict and against triangle_overlaps_box on that octant.
+  long checked = 0, missed = 0, only_single = 0, only_shared = 0;
+  for (const Case& c : case_sets().generic) {
+    const OctantCase o = as_octant(c, 0);
+    const std::uint32_t mask = tested_octants<float>(c, o);
+    for (std::uint32_t bit = 0; bit < 8; ++bit) {
+      Case octant = c;
+      for (int k = 0; k < 3; ++k) {
+        octant.lo[k] = (bit >> k & 1) ? o.mid[k] : o.lo[k];
+        octant.hi[k] = (bit >> k & 1) ? o.hi[k] : o.mid[k];
+      }
+      const bool single = tested_overlap<float>(octant);
+      const bool shared = (mask >> bit & 1) != 0;
+      ++checked;
+      missed += exact_overlap(octant).overlap && !shared;
+      only_single += single && !shared;
+      only_shared += shared && !single;
+    }
+  }
+  std::printf("octants vs single boxes: %ld checked, %ld only single, %ld only shared\n", checked,
+              only_single, only_shared);
+  EXPECT_EQ(missed, 0);
+  EXPECT_LE(only_shared, checked / 10000);
+}
+
 // --- Grid cells --------------------------------------------------------------------------------
 constexpr int kGrid = 8;
 using Cell = std::array<int, 3>;

@@ -1,6 +1,8 @@
 // core/triangle.h: triangles as the tracers store them, and their bounding boxes.
 #pragma once
 
+#include <cstdint>
+
 #include "core/platform.h"
 #include "core/vec.h"
 
@@ -47,6 +49,26 @@ IRGRID_HD inline bool vertex_in_box(const TriangleVertices& t, const Vec3<float>
                                     const Vec3<float>& hi, float padding) {
   return point_in_box(t.p0, lo, hi, padding) || point_in_box(t.p1, lo, hi, padding) ||
          point_in_box(t.p2, lo, hi, padding);
+}
+
+/// The octants of the box [lo, hi] split at mid (bit 0 selects the upper x half, bit 1 y, bit 2
+/// z), each grown by `padding`, that hold a vertex of the triangle: vertex_in_box for all eight.
+IRGRID_HD inline std::uint32_t octants_holding_vertex(const TriangleVertices& t,
+                                                      const Vec3<float>& lo, const Vec3<float>& mid,
+                                                      const Vec3<float>& hi, float padding) {
+  const std::uint32_t upper_half[3] = {0xAA, 0xCC, 0xF0};
+  const Vec3<float> vertices[3] = {t.p0, t.p1, t.p2};
+  std::uint32_t held = 0;
+  for (int i = 0; i < 3; ++i) {
+    std::uint32_t in = 0xFF;
+    for (int a = 0; a < 3; ++a) {
+      const float x = vertices[i][a];
+      if (!(x >= lo[a] - padding && x <= mid[a] + padding)) in &= upper_half[a];
+      if (!(x >= mid[a] - padding && x <= hi[a] + padding)) in &= ~upper_half[a];
+    }
+    held |= in;
+  }
+  return held;
 }
 
 }  // namespace irgrid

@@ -29,7 +29,16 @@
 // Float is precise for triangles whose size and distance to the box lie within ~1e-12..1e12
 // (the normal axis costs size^2, its projections size^3); outside that it degrades to
 // reporting overlap, never to missing one.
+//
+// octants_overlapped answers the same question for the 8 octants of a box at once. The axes
+// depend on the triangle only, so each axis projects the triangle once, in the frame of the box
+// centre C, and an octant only shifts that projection by a.o, where o is its centre's offset
+// from C; its radius |a|.h takes its own half extents, as in center_on_box. The shift, its
+// rounding and the extra subtraction add at most ~3u sum_k |a_k| |o_k| to the errors above; the
+// margin takes R_k = max_i |v_ik| + max |o_k| + max h_k, so it still holds twice the error bound.
 #pragma once
+
+#include <cstdint>
 
 #include "core/platform.h"
 #include "core/vec.h"
@@ -144,6 +153,73 @@ IRGRID_HD IRGRID_ALWAYS_INLINE bool edge_separates(Vec3<T> edge, const CenteredT
          separated_along<2>(Vec3<T>{edge.y, -edge.x, T(0)}, t);
 }
 
+/// A box split into 8 octants (bit 0 selects the upper x half, bit 1 y, bit 2 z), each grown by
+/// the padding, with the triangle in the frame of the whole box's centre C.
+template <typename T>
+struct OctantFrame {
+  Vec3<T> v0, v1, v2;  ///< vertices minus C
+  Vec3<T> offset[2];   ///< centre of the lower [0] and upper [1] octants minus C, per axis
+  Vec3<T> half[2];     ///< half extents of the lower and upper octants' padded boxes
+  Vec3<T> reach;       ///< per axis: max_i |v_ik| + max |offset_k| + max half_k + tiny/eps
+};
+
+template <typename T>
+IRGRID_HD inline OctantFrame<T> octant_frame(Vec3<T> p0, Vec3<T> p1, Vec3<T> p2, Vec3<T> lo,
+                                             Vec3<T> mid, Vec3<T> hi, T padding) {
+  OctantFrame<T> f;
+  const T floor = smallest_normal<T>() / machine_epsilon<T>();
+  for (int k = 0; k < 3; ++k) {
+    const T outer_lo = lo[k] - padding, outer_hi = hi[k] + padding;
+    const T center = T(0.5) * outer_lo + T(0.5) * outer_hi;
+    // The octants' padded intervals, described by centre and half extent as in center_on_box.
+    const T lower_hi = mid[k] + padding, upper_lo = mid[k] - padding;
+    const T lower_center = T(0.5) * outer_lo + T(0.5) * lower_hi;
+    const T upper_center = T(0.5) * upper_lo + T(0.5) * outer_hi;
+    f.half[0][k] = max_of(lower_hi - lower_center, lower_center - outer_lo);
+    f.half[1][k] = max_of(outer_hi - upper_center, upper_center - upper_lo);
+    f.offset[0][k] = lower_center - center;
+    f.offset[1][k] = upper_center - center;
+    f.v0[k] = p0[k] - center;
+    f.v1[k] = p1[k] - center;
+    f.v2[k] = p2[k] - center;
+    const T farthest = max_of(abs_of(f.v0[k]), max_of(abs_of(f.v1[k]), abs_of(f.v2[k])));
+    const T offset = max_of(abs_of(f.offset[0][k]), abs_of(f.offset[1][k]));
+    f.reach[k] = farthest + offset + max_of(f.half[0][k], f.half[1][k]) + floor;
+  }
+  return f;
+}
+
+/// `mask` less the octants whose projections onto `axis` are disjoint from the triangle's by
+/// more than rounding could explain; kZero as in separated_along.
+template <int kZero = -1, typename T>
+IRGRID_HD IRGRID_ALWAYS_INLINE std::uint32_t octants_not_separated_along(Vec3<T> axis,
+                                                                         const OctantFrame<T>& f,
+                                                                         std::uint32_t mask) {
+  const T d0 = dot_without<kZero>(axis, f.v0), d1 = dot_without<kZero>(axis, f.v1),
+          d2 = dot_without<kZero>(axis, f.v2);
+  const Vec3<T> magnitude = abs_of(axis);
+  const T tolerance = T(8) * machine_epsilon<T>() * dot_without<kZero>(magnitude, f.reach) +
+                      T(16) * smallest_normal<T>();
+  const T lowest = min_of(d0, min_of(d1, d2)), highest = max_of(d0, max_of(d1, d2));
+  // Per axis and side, the terms of the octant centre's projection and of its radius.
+  T shift[3][2], extent[3][2];
+  for (int k = 0; k < 3; ++k)
+    for (int side = 0; side < 2; ++side) {
+      shift[k][side] = axis[k] * f.offset[side][k];
+      extent[k][side] = magnitude[k] * f.half[side][k];
+    }
+  for (std::uint32_t bit = 0; bit < 8; ++bit) {
+    if (!(mask >> bit & 1)) continue;
+    const std::uint32_t x = bit & 1, y = bit >> 1 & 1, z = bit >> 2 & 1;
+    const T s = (shift[0][x] + shift[1][y]) + shift[2][z];
+    const T radius = (extent[0][x] + extent[1][y]) + extent[2][z];
+    // As in separated_along: a NaN or infinite tolerance or shift never separates.
+    if ((lowest - s) - radius > tolerance || (s - highest) - radius > tolerance)
+      mask &= ~(1u << bit);
+  }
+  return mask;
+}
+
 }  // namespace triangle_box_detail
 
 /// Whether triangle (p0, p1, p2) overlaps the closed box [box_lo, box_hi] grown by `padding`
@@ -165,6 +241,32 @@ IRGRID_HD IRGRID_ALWAYS_INLINE bool triangle_overlaps_box(Vec3<T> p0, Vec3<T> p1
   // The triangle's plane against the box.
   if (separated_along(cross(e0, e1), t)) return false;
   return !(edge_separates(e0, t) || edge_separates(e1, t) || edge_separates(e2, t));
+}
+
+/// Which of the 8 octants of the box [lo, hi], split at mid (bit 0 selects the upper x half,
+/// bit 1 y, bit 2 z), each grown by `padding`, the triangle overlaps, among the bits of
+/// `candidates`. Conservative like triangle_overlaps_box (the header comment says why), with
+/// the triangle's projections onto the 13 axes shared by the octants. Requires lo <= mid <= hi.
+template <typename T>
+IRGRID_HD inline std::uint32_t octants_overlapped(Vec3<T> p0, Vec3<T> p1, Vec3<T> p2, Vec3<T> lo,
+                                                  Vec3<T> mid, Vec3<T> hi, T padding,
+                                                  std::uint32_t candidates) {
+  using namespace triangle_box_detail;
+  const OctantFrame<T> f = octant_frame(p0, p1, p2, lo, mid, hi, padding);
+  std::uint32_t mask = candidates;
+  mask = octants_not_separated_along<1>(Vec3<T>{T(1), T(0), T(0)}, f, mask);
+  mask = octants_not_separated_along<0>(Vec3<T>{T(0), T(1), T(0)}, f, mask);
+  mask = octants_not_separated_along<0>(Vec3<T>{T(0), T(0), T(1)}, f, mask);
+  const Vec3<T> e0 = f.v1 - f.v0, e1 = f.v2 - f.v1, e2 = f.v0 - f.v2;
+  if (mask) mask = octants_not_separated_along(cross(e0, e1), f, mask);
+  const Vec3<T> edges[3] = {e0, e1, e2};
+  for (int i = 0; i < 3 && mask; ++i) {
+    const Vec3<T> e = edges[i];
+    mask = octants_not_separated_along<0>(Vec3<T>{T(0), e.z, -e.y}, f, mask);
+    mask = octants_not_separated_along<1>(Vec3<T>{-e.z, T(0), e.x}, f, mask);
+    mask = octants_not_separated_along<2>(Vec3<T>{e.y, -e.x, T(0)}, f, mask);
+  }
+  return mask;
 }
 
 }  // namespace irgrid

@@ -55,7 +55,7 @@ LevelNodes<Exec> top_level_nodes(Exec& exec, const GridInfo& info) {
 IRGRID_HD inline std::uint32_t child_overlap_mask(const GridInfo& info, Voxel lo, std::int32_t half,
                                                   const TriangleVertices& t) {
   // Cull by the triangle's padded box against the node's mid-planes first (cheap), then run the
-  // exact test on the children left.
+  // exact test on the children left, all at once.
   const BoxF box = triangle_box(t);
   std::uint32_t mask = 0xFF;
   const std::uint32_t upper_half[3] = {0xAA, 0xCC, 0xF0};
@@ -67,19 +67,18 @@ IRGRID_HD inline std::uint32_t child_overlap_mask(const GridInfo& info, Voxel lo
   // One child left: the triangle meets the node's padded box (it was kept there by the same
   // conservative test), and every such point lies within that child's padded box.
   if ((mask & (mask - 1)) == 0) return mask;
-  for (std::uint32_t bit = 0; bit < 8; ++bit) {
-    if (!(mask >> bit & 1)) continue;
-    Vec3<float> box_lo, box_hi;
-    for (int a = 0; a < 3; ++a) {
-      const std::int32_t v = lo[a] + ((bit >> a & 1) ? half : 0);
-      box_lo[a] = voxel_to_world(info, a, v);
-      box_hi[a] = voxel_to_world(info, a, v + half);
-    }
-    if (!vertex_in_box(t, box_lo, box_hi, info.padding) &&
-        !triangle_overlaps_box(t.p0, t.p1, t.p2, box_lo, box_hi, info.padding))
-      mask &= ~(1u << bit);
+  Vec3<float> node_lo, node_mid, node_hi;
+  for (int a = 0; a < 3; ++a) {
+    node_lo[a] = voxel_to_world(info, a, lo[a]);
+    node_mid[a] = voxel_to_world(info, a, lo[a] + half);
+    node_hi[a] = voxel_to_world(info, a, lo[a] + 2 * half);
   }
-  return mask;
+  // A child holding a vertex overlaps it (exact); the others take the separating-axis test.
+  const std::uint32_t held =
+      mask & octants_holding_vertex(t, node_lo, node_mid, node_hi, info.padding);
+  if (held == mask) return mask;
+  return held | octants_overlapped(t.p0, t.p1, t.p2, node_lo, node_mid, node_hi, info.padding,
+                                   mask & ~held);
 }
 
 /// Number of set bits of an 8-bit mask, without a library call (x86-64 without -mpopcnt turns
