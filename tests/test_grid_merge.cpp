@@ -30,12 +30,13 @@ const std::vector<std::string> kScenes = {"builtin:cornell", "builtin:teapot-sta
                                           "builtin:soup:3000", "builtin:hairball:5000",
                                           "builtin:sphere:2000"};
 
-constexpr float kAlpha = 0.995f, kCostRatio = 1.f;
+constexpr float kAlpha = 0.995f, kCostRatio = 1.f, kEmptyAspect = BuildConfig{}.empty_aspect;
 
-Grid merged_copy(const Grid& grid, float alpha = kAlpha, float cost_ratio = kCostRatio) {
+Grid merged_copy(const Grid& grid, float alpha = kAlpha, float cost_ratio = kCostRatio,
+                 float empty_aspect = kEmptyAspect) {
   CpuExecutor exec;
   Grid copy = grid;
-  merge_cells(exec, copy, alpha, cost_ratio);
+  merge_cells(exec, copy, alpha, cost_ratio, empty_aspect);
   return copy;
 }
 
@@ -285,7 +286,7 @@ TEST_P(GridMerge, MergingTheOctreeFormMapThenCompactingGivesTheSameCells) {
   CpuExecutor exec;
   Grid grid = build_octree_form_grid(c.scene);
   const std::vector<std::uint32_t> level_offsets = grid.level_offsets;
-  merge_cells(exec, grid, kAlpha, kCostRatio);
+  merge_cells(exec, grid, kAlpha, kCostRatio, kEmptyAspect);
   EXPECT_EQ(grid.level_offsets, level_offsets) << "the map keeps its shape";
   compact_map(exec, grid);
   ASSERT_EQ(grid.info.num_cells, c.after.info.num_cells);
@@ -307,10 +308,62 @@ TEST_P(GridMerge, AtAlphaOneNoCellHasAMergeLeft) {
     for (std::uint32_t id = 0; id < grid.info.num_cells; ++id) {
       std::uint32_t union_size = 0;
       ASSERT_EQ(merge_detail::merge_partner(grid.info, grid.entries.data(), grid.cells.data(),
-                                            grid.refs.data(), id, axis, kCostRatio, union_size),
+                                            grid.refs.data(), id, axis, kCostRatio, kEmptyAspect,
+                                            union_size),
                 merge_detail::kNoCell)
           << "cell " << id << " axis " << axis;
     }
+}
+
+/// The largest aspect ratio (longest over shortest side, world units) among empty cells.
+double widest_empty_cell(const Grid& grid) {
+  double widest = 0;
+  for (const Cell& c : grid.cells) {
+    if (c.end != c.begin) continue;
+    double longest = 0, shortest = INFINITY;
+    for (int a = 0; a < 3; ++a) {
+      const double side = double(c.hi[a] - c.lo[a]) * grid.info.voxel_size[a];
+      longest = std::max(longest, side);
+      shortest = std::min(shortest, side);
+    }
+    widest = std::max(widest, longest / shortest);
+  }
+  return widest;
+}
+
+// Empty cells start as octree nodes, shaped like a top cell; a merge along an axis keeps that
+// side within empty_aspect times the thinnest other one, so no empty cell grows wider than
+// max(empty_aspect, the top cell's aspect ratio).
+TEST_P(GridMerge, EmptyCellsKeepABoundedAspectRatio) {
+  const MergeCase& c = merge_case(GetParam());
+  const Grid bounded = merged_copy(c.before, 1.f),
+             unbounded = merged_copy(c.before, 1.f, kCostRatio, 0.f);
+  const GridInfo& info = c.before.info;
+  double top_longest = 0, top_shortest = INFINITY;
+  for (int a = 0; a < 3; ++a) {
+    const double side = double(info.voxel_size[a]) * double(1 << info.shift);
+    top_longest = std::max(top_longest, side);
+    top_shortest = std::min(top_shortest, side);
+  }
+  const double bound = std::max(double(kEmptyAspect), top_longest / top_shortest) * (1 + 1e-5);
+  EXPECT_LE(widest_empty_cell(bounded), bound);
+  EXPECT_GT(widest_empty_cell(unbounded), bound) << "the SAH alone makes slabs here";
+  EXPECT_LT(bounded.info.num_cells, c.before.info.num_cells) << "empty cells still merge";
+  std::printf("%-28s widest empty cell: %.1f bounded, %.1f with the SAH alone\n",
+              GetParam().c_str(), widest_empty_cell(bounded), widest_empty_cell(unbounded));
+}
+
+TEST(GridMergeLimits, EmptyAspectBelowOneIsRejected) {
+  const Scene scene = load_scene("builtin:cube");
+  BuildConfig config;
+  config.empty_aspect = 0.5f;
+  try {
+    testing::build_test_grid(scene, config);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ErrorCode::invalid_argument);
+    EXPECT_NE(std::string(e.what()).find("empty_aspect"), std::string::npos);
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Builtin, GridMerge, ::testing::ValuesIn(kScenes), [](const auto& info) {

@@ -37,6 +37,7 @@ nlohmann::json statistics_json(const Scene& scene, const Accelerator& accelerato
             {"split_refs", grid.split_refs},
             {"alpha", grid.alpha},
             {"cost_ratio", grid.cost_ratio},
+            {"empty_aspect", grid.empty_aspect},
             {"expansion_passes", grid.expansion_passes},
             {"partial_expansion", grid.partial_expansion},
             {"compress", grid.compress}}}};

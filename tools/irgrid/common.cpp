@@ -59,6 +59,11 @@ void add_structure_options(CLI::App* command, StructureOptions& options) {
       ->capture_default_str()
       ->group("Grid");
   command
+      ->add_option("--empty-aspect", grid.empty_aspect,
+                   "Largest aspect ratio of merged empty cells (0: no bound)")
+      ->capture_default_str()
+      ->group("Grid");
+  command
       ->add_option("--expansion-passes", grid.expansion_passes,
                    "Exit-box expansion passes (0: off)")
       ->capture_default_str()

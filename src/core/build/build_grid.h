@@ -138,7 +138,7 @@ void build_grid(Exec& exec, GridArrays<Exec>& grid, const BuildConfig& config,
   // Merging and expansion (paper §3.2-3.3) only for the irregular grid: the uniform and
   // two-level grids are the baselines without them.
   const bool irregular = config.shape == BuildConfig::Shape::irregular;
-  if (irregular) merge_cells(exec, grid, config.alpha, config.cost_ratio);
+  if (irregular) merge_cells(exec, grid, config.alpha, config.cost_ratio, config.empty_aspect);
   clock.lap("merge");
   compact_map(exec, grid);
   clock.lap("voxel map");

@@ -48,14 +48,32 @@ IRGRID_HD inline float half_area(const GridInfo& info, const std::int32_t* lo,
   return dx * dy + dy * dz + dz * dx;
 }
 
+/// Whether two empty cells may merge along `axis` into the box [lo, hi) (voxels): its length
+/// along the axis, in world units, stays within empty_aspect times its thinnest other side
+/// (empty_aspect 0: always). The SAH alone merges empty cells into long slabs (merging two
+/// empty cells always lowers it), which rays crossing them must step through one by one;
+/// keeping the aspect ratio bounded keeps empty space in block-like cells. Not in the paper.
+IRGRID_HD inline bool empty_merge_keeps_shape(const GridInfo& info, const std::int32_t* lo,
+                                              const std::int32_t* hi, int axis,
+                                              float empty_aspect) {
+  if (!(empty_aspect > 0)) return true;
+  float thinnest = INFINITY;
+  for (int other = 0; other < 3; ++other) {
+    const float side = float(hi[other] - lo[other]) * info.voxel_size[other];
+    if (other != axis && side < thinnest) thinnest = side;
+  }
+  return float(hi[axis] - lo[axis]) * info.voxel_size[axis] <= empty_aspect * thinnest;
+}
+
 /// The cell that `c1` proposes to merge with along `axis` (kNoCell if none), and the size of the
 /// union of their lists in `union_size` when there is one. The partner owns the voxel just past
 /// c1's upper face, must start on that face and have c1's cross-section, and the merged cell must
-/// cost no more than the two: SA(c1 ∪ c2)(n12 + C) <= SA(c1)(n1 + C) + SA(c2)(n2 + C).
+/// cost no more than the two: SA(c1 ∪ c2)(n12 + C) <= SA(c1)(n1 + C) + SA(c2)(n2 + C). Two empty
+/// cells must also pass empty_merge_keeps_shape.
 IRGRID_HD inline std::uint32_t merge_partner(const GridInfo& info, const Entry* entries,
                                              const Cell* cells, const std::uint32_t* refs,
                                              std::uint32_t c1, int axis, float cost_ratio,
-                                             std::uint32_t& union_size) {
+                                             float empty_aspect, std::uint32_t& union_size) {
   const Cell a = cells[c1];
   if (a.hi[axis] >= info.virtual_dims[axis]) return kNoCell;
   Voxel past{a.lo[0], a.lo[1], a.lo[2]};
@@ -66,6 +84,8 @@ IRGRID_HD inline std::uint32_t merge_partner(const GridInfo& info, const Entry* 
   for (int other = 0; other < 3; ++other)
     if (other != axis && (b.lo[other] != a.lo[other] || b.hi[other] != a.hi[other])) return kNoCell;
   const std::uint32_t n1 = a.end - a.begin, n2 = b.end - b.begin;
+  if (n1 == 0 && n2 == 0 && !empty_merge_keeps_shape(info, a.lo, b.hi, axis, empty_aspect))
+    return kNoCell;
   const float budget = half_area(info, a.lo, a.hi) * (float(n1) + cost_ratio) +
                        half_area(info, b.lo, b.hi) * (float(n2) + cost_ratio);
   const float merged_area = half_area(info, a.lo, b.hi);
@@ -84,8 +104,8 @@ IRGRID_HD inline std::uint32_t merge_partner(const GridInfo& info, const Entry* 
 /// propose nothing gets the bit. Returns the number of proposals.
 template <typename Exec>
 std::uint32_t propose_merges(Exec& exec, const GridArrays<Exec>& grid, int axis, float cost_ratio,
-                             std::uint32_t* next, std::uint32_t* prev, std::uint32_t* union_size,
-                             std::uint32_t* quiet, bool track) {
+                             float empty_aspect, std::uint32_t* next, std::uint32_t* prev,
+                             std::uint32_t* union_size, std::uint32_t* quiet, bool track) {
   const GridInfo info = grid.info;
   const Entry* entries = grid.entries.data();
   const Cell* cells = grid.cells.data();
@@ -95,7 +115,7 @@ std::uint32_t propose_merges(Exec& exec, const GridArrays<Exec>& grid, int axis,
     std::uint32_t size = 0;
     next[i] = (quiet[i] & bit) != 0 ? kNoCell
                                     : merge_partner(info, entries, cells, refs, std::uint32_t(i),
-                                                    axis, cost_ratio, size);
+                                                    axis, cost_ratio, empty_aspect, size);
     if (track && next[i] == kNoCell) quiet[i] |= bit;
     union_size[i] = size;
     prev[i] = kNoCell;
@@ -235,14 +255,14 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
 /// One sweep along `axis`: proposals, chain resolution, rebuild. Leaves the grid untouched when
 /// no cell proposes.
 template <typename Exec>
-void merge_sweep(Exec& exec, GridArrays<Exec>& grid, int axis, float cost_ratio,
+void merge_sweep(Exec& exec, GridArrays<Exec>& grid, int axis, float cost_ratio, float empty_aspect,
                  typename Exec::template Buffer<std::uint32_t>& quiet, bool track) {
   const std::uint32_t n = grid.info.num_cells;
   auto next = exec.template allocate<std::uint32_t>(n);
   auto prev = exec.template allocate<std::uint32_t>(n);
   auto union_size = exec.template allocate<std::uint32_t>(n);
-  if (propose_merges(exec, grid, axis, cost_ratio, next.data(), prev.data(), union_size.data(),
-                     quiet.data(), track) == 0)
+  if (propose_merges(exec, grid, axis, cost_ratio, empty_aspect, next.data(), prev.data(),
+                     union_size.data(), quiet.data(), track) == 0)
     return;
   const auto parity = chain_parity(exec, prev.data(), n);
   apply_merges(exec, grid, next.data(), union_size.data(), parity.data(), quiet, track);
@@ -257,16 +277,21 @@ void merge_sweep(Exec& exec, GridArrays<Exec>& grid, int axis, float cost_ratio,
 /// Rounds of sweeps along x, y and z repeat while a round leaves fewer than alpha x the cells it
 /// started with (and removes at least one, so alpha >= 1 terminates too); alpha <= 0 (or NaN)
 /// disables merging. cost_ratio is the SAH's C_t / C_i (>= 0, finite; Error(invalid_argument)
-/// otherwise).
+/// otherwise). empty_aspect bounds the aspect ratio of merged empty cells (empty_merge_keeps_shape;
+/// 0 or >= 1, finite; 0 disables the bound).
 ///
 /// Guarantees: cells still tile the virtual grid and the voxel map returns the owner of every
 /// voxel; every list is the sorted, duplicate-free union of the lists of the cells merged into
 /// it, so no reference is lost; the result is bit-identical for any number of threads.
 template <typename Exec>
-void merge_cells(Exec& exec, GridArrays<Exec>& grid, float alpha, float cost_ratio) {
+void merge_cells(Exec& exec, GridArrays<Exec>& grid, float alpha, float cost_ratio,
+                 float empty_aspect = 0) {
   if (!(cost_ratio >= 0) || !std::isfinite(cost_ratio))
     throw Error(ErrorCode::invalid_argument,
                 "cost_ratio = " + std::to_string(cost_ratio) + " must be a number >= 0");
+  if (!(empty_aspect == 0 || (empty_aspect >= 1 && std::isfinite(empty_aspect))))
+    throw Error(ErrorCode::invalid_argument, "empty_aspect = " + std::to_string(empty_aspect) +
+                                                 " must be 0 (no bound) or a number >= 1");
   if (!(alpha > 0)) return;
   auto quiet = exec.template allocate<std::uint32_t>(grid.info.num_cells);
   std::uint32_t* d_quiet = quiet.data();
@@ -277,7 +302,7 @@ void merge_cells(Exec& exec, GridArrays<Exec>& grid, float alpha, float cost_rat
   for (bool track = false;; track = true) {
     const std::uint32_t before = grid.info.num_cells;
     for (int axis = 0; axis < 3; ++axis)
-      merge_detail::merge_sweep(exec, grid, axis, cost_ratio, quiet, track);
+      merge_detail::merge_sweep(exec, grid, axis, cost_ratio, empty_aspect, quiet, track);
     const std::uint32_t after = grid.info.num_cells;
     if (after == before || double(after) >= double(alpha) * double(before)) break;
   }
