@@ -83,6 +83,15 @@ struct CenteredTriangle {
   Vec3<T> reach;       ///< per axis: max_i |v_ik| + half_k + tiny/eps (see the header comment)
 };
 
+/// A centre of [lo, hi] and the half extent from it to the farther end. Any centre will do;
+/// halving first cannot overflow. Measured from the rounded centre, the half extent describes a
+/// box holding [lo, hi] up to one rounding, which the margin accounts for.
+template <typename T>
+IRGRID_HD inline void center_and_half(T lo, T hi, T& center, T& half) {
+  center = T(0.5) * lo + T(0.5) * hi;
+  half = max_of(hi - center, center - lo);
+}
+
 template <typename T>
 IRGRID_HD inline CenteredTriangle<T> center_on_box(Vec3<T> p0, Vec3<T> p1, Vec3<T> p2,
                                                    Vec3<T> box_lo, Vec3<T> box_hi, T padding) {
@@ -91,11 +100,8 @@ IRGRID_HD inline CenteredTriangle<T> center_on_box(Vec3<T> p0, Vec3<T> p1, Vec3<
   for (int k = 0; k < 3; ++k) {
     // lo - padding <= lo after rounding (and hi + padding >= hi): the padded box holds the box.
     const T lo = box_lo[k] - padding, hi = box_hi[k] + padding;
-    // Any centre will do; halving first cannot overflow. The half extent is measured from the
-    // rounded centre to the farther face, so the box it describes holds [lo, hi] up to one
-    // rounding, which the margin accounts for.
-    const T center = T(0.5) * lo + T(0.5) * hi;
-    t.half[k] = max_of(hi - center, center - lo);
+    T center;
+    center_and_half(lo, hi, center, t.half[k]);
     t.v0[k] = p0[k] - center;
     t.v1[k] = p1[k] - center;
     t.v2[k] = p2[k] - center;
@@ -172,11 +178,9 @@ IRGRID_HD inline OctantFrame<T> octant_frame(Vec3<T> p0, Vec3<T> p1, Vec3<T> p2,
     const T outer_lo = lo[k] - padding, outer_hi = hi[k] + padding;
     const T center = T(0.5) * outer_lo + T(0.5) * outer_hi;
     // The octants' padded intervals, described by centre and half extent as in center_on_box.
-    const T lower_hi = mid[k] + padding, upper_lo = mid[k] - padding;
-    const T lower_center = T(0.5) * outer_lo + T(0.5) * lower_hi;
-    const T upper_center = T(0.5) * upper_lo + T(0.5) * outer_hi;
-    f.half[0][k] = max_of(lower_hi - lower_center, lower_center - outer_lo);
-    f.half[1][k] = max_of(outer_hi - upper_center, upper_center - upper_lo);
+    T lower_center, upper_center;
+    center_and_half(outer_lo, mid[k] + padding, lower_center, f.half[0][k]);
+    center_and_half(mid[k] - padding, outer_hi, upper_center, f.half[1][k]);
     f.offset[0][k] = lower_center - center;
     f.offset[1][k] = upper_center - center;
     f.v0[k] = p0[k] - center;
