@@ -204,7 +204,7 @@ TEST(OctreeSplit, NodesAboveTheThresholdSplitWhileItSeparatesTheirTriangles) {
     for (std::uint32_t r = c.begin; r < c.end; ++r)
       child_refs += popcount8(child_overlap_mask(grid.info, {c.lo[0], c.lo[1], c.lo[2]}, size / 2,
                                                  grid.triangles[grid.refs[r]]));
-    EXPECT_FALSE(rule.count_split_pays(refs, child_refs))
+    EXPECT_FALSE(rule.count_split_separates(refs, child_refs))
         << "cell of " << refs << " references, " << size << " voxels wide";
   }
   EXPECT_LT(above, grid.cells.size() / 100);

@@ -106,7 +106,7 @@ typename Exec::template Buffer<std::uint32_t> select_indices(Exec& exec, const c
 
 /// When an octree node splits: always below its top cell's depth while it holds references (or
 /// even empty, for the two-level grid); and, below count_split_depth, while it holds more than
-/// split_refs references and the split separates them (see count_split_pays).
+/// split_refs references and the split separates them (see count_split_separates).
 struct OctreeRule {
   const std::int32_t* depths;  ///< per top cell
   bool split_empty;
@@ -126,7 +126,7 @@ struct OctreeRule {
   /// along a thin cylinder, land in every child on their path, level after level: Conference's
   /// references grew from 0.78 to 1.46 million with a surface-area test alone, for 1.5% fewer
   /// triangle tests per ray).
-  IRGRID_HD bool count_split_pays(std::uint32_t refs, std::uint32_t child_refs) const {
+  IRGRID_HD bool count_split_separates(std::uint32_t refs, std::uint32_t child_refs) const {
     return std::uint64_t(child_refs) * 2 <= std::uint64_t(refs) * 3;
   }
 };
@@ -183,7 +183,7 @@ LevelPlan<Exec> plan_level(Exec& exec, const GridInfo& info, const TriangleVerti
   exec.for_each("level split", n, [=] IRGRID_HD(std::size_t i) {
     const std::uint32_t refs = child_base[i];
     split[i] = r.splits_by_depth(level, r.depths[top[i]], refs) ? kSplitByDepth
-               : r.count_candidate(level, refs) && r.count_split_pays(refs, leaf_index[i])
+               : r.count_candidate(level, refs) && r.count_split_separates(refs, leaf_index[i])
                    ? kSplitByCount
                    : kNoSplit;
     const bool splits = split[i] != kNoSplit;
