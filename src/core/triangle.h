@@ -51,20 +51,24 @@ IRGRID_HD inline bool vertex_in_box(const TriangleVertices& t, const Vec3<float>
          point_in_box(t.p2, lo, hi, padding);
 }
 
+/// The octants (bit 0 selects the upper x half, bit 1 y, bit 2 z) in the upper half along `axis`.
+IRGRID_HD constexpr std::uint32_t upper_octants(int axis) {
+  return axis == 0 ? 0xAAu : (axis == 1 ? 0xCCu : 0xF0u);
+}
+
 /// The octants of the box [lo, hi] split at mid (bit 0 selects the upper x half, bit 1 y, bit 2
 /// z), each grown by `padding`, that hold a vertex of the triangle: vertex_in_box for all eight.
 IRGRID_HD inline std::uint32_t octants_holding_vertex(const TriangleVertices& t,
                                                       const Vec3<float>& lo, const Vec3<float>& mid,
                                                       const Vec3<float>& hi, float padding) {
-  const std::uint32_t upper_half[3] = {0xAA, 0xCC, 0xF0};
   const Vec3<float> vertices[3] = {t.p0, t.p1, t.p2};
   std::uint32_t held = 0;
   for (int i = 0; i < 3; ++i) {
     std::uint32_t in = 0xFF;
     for (int a = 0; a < 3; ++a) {
       const float x = vertices[i][a];
-      if (!(x >= lo[a] - padding && x <= mid[a] + padding)) in &= upper_half[a];
-      if (!(x >= mid[a] - padding && x <= hi[a] + padding)) in &= ~upper_half[a];
+      if (!(x >= lo[a] - padding && x <= mid[a] + padding)) in &= upper_octants(a);
+      if (!(x >= mid[a] - padding && x <= hi[a] + padding)) in &= ~upper_octants(a);
     }
     held |= in;
   }

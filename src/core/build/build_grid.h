@@ -23,19 +23,6 @@
 
 namespace irgrid {
 
-/// Finest octree depth at which the virtual grid still fits 16-bit compressed cells.
-inline std::int32_t compact_octree_depth(const GridInfo& info) {
-  std::int32_t depth = 0;
-  while (depth < max_octree_depth(info)) {
-    bool fits = true;
-    for (int a = 0; a < 3; ++a)
-      fits &= (std::int64_t(info.top_dims[a]) << (depth + 1)) <= 0xffff;
-    if (!fits) break;
-    ++depth;
-  }
-  return depth;
-}
-
 /// The octree depths of a build (paper §3.1, and our count rule: BuildConfig::split_refs).
 template <typename Exec>
 struct OctreeDepths {

@@ -58,11 +58,10 @@ IRGRID_HD inline std::uint32_t child_overlap_mask(const GridInfo& info, Voxel lo
   // exact test on the children left, all at once.
   const BoxF box = triangle_box(t);
   std::uint32_t mask = 0xFF;
-  const std::uint32_t upper_half[3] = {0xAA, 0xCC, 0xF0};
   for (int a = 0; a < 3; ++a) {
     const float mid = voxel_to_world(info, a, lo[a] + half);
-    if (box.hi[a] + info.padding < mid) mask &= ~upper_half[a];
-    if (box.lo[a] - info.padding > mid) mask &= upper_half[a];
+    if (box.hi[a] + info.padding < mid) mask &= ~upper_octants(a);
+    if (box.lo[a] - info.padding > mid) mask &= upper_octants(a);
   }
   // One child left: the triangle meets the node's padded box (it was kept there by the same
   // conservative test), and every such point lies within that child's padded box.

@@ -118,17 +118,27 @@ inline void set_virtual_resolution(GridInfo& info, std::int32_t shift) {
   }
 }
 
-/// Largest octree depth the virtual grid allows: R << D stays within kMaxVirtualResolution.
-inline std::int32_t max_octree_depth(const GridInfo& info) {
+/// Largest octree depth D (at most 20) at which R << D stays within `resolution` per axis.
+inline std::int32_t deepest_octree_depth_within(const GridInfo& info, std::int64_t resolution) {
   std::int32_t depth = 0;
   while (depth < 20) {
     bool fits = true;
     for (int a = 0; a < 3; ++a)
-      fits &= (std::int64_t(info.top_dims[a]) << (depth + 1)) <= kMaxVirtualResolution;
+      fits &= (std::int64_t(info.top_dims[a]) << (depth + 1)) <= resolution;
     if (!fits) break;
     ++depth;
   }
   return depth;
+}
+
+/// Largest octree depth the virtual grid allows: R << D stays within kMaxVirtualResolution.
+inline std::int32_t max_octree_depth(const GridInfo& info) {
+  return deepest_octree_depth_within(info, kMaxVirtualResolution);
+}
+
+/// Finest octree depth at which the virtual grid still fits 16-bit compressed cells.
+inline std::int32_t compact_octree_depth(const GridInfo& info) {
+  return deepest_octree_depth_within(info, kMaxCompactResolution);
 }
 
 }  // namespace irgrid

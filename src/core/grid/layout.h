@@ -15,6 +15,8 @@ namespace irgrid {
 /// Largest virtual-grid resolution per axis: voxel coordinates, their sums and the exit-box
 /// coordinates stay far from int32 overflow, and compressed cells fit 16 bits when below 2^16.
 inline constexpr std::int32_t kMaxVirtualResolution = 1 << 24;
+/// Largest virtual-grid resolution per axis at which compressed cells' 16-bit bounds still fit.
+inline constexpr std::int32_t kMaxCompactResolution = 0xffff;
 /// Largest number of cells, references and voxel-map entries (30 bits of an entry address them).
 inline constexpr std::uint32_t kMaxEntryTarget = (1u << 30) - 1;
 
@@ -57,8 +59,9 @@ static_assert(sizeof(CompactCell) == 16 && alignof(CompactCell) == 4);
 
 /// Whether the grid's voxel coordinates fit compressed cells (every exit-box bound < 2^16).
 IRGRID_HD inline bool fits_compact_cells(const GridInfo& info) {
-  return info.virtual_dims[0] <= 0xffff && info.virtual_dims[1] <= 0xffff &&
-         info.virtual_dims[2] <= 0xffff;
+  return info.virtual_dims[0] <= kMaxCompactResolution &&
+         info.virtual_dims[1] <= kMaxCompactResolution &&
+         info.virtual_dims[2] <= kMaxCompactResolution;
 }
 
 /// Cell i in the full layout, from either array.
