@@ -6,8 +6,12 @@
 #include <limits>
 
 #include "core/random.h"
+#include "cpu/interleaved_walk.h"
+#include "cpu/walk_policy.h"
+#include "grid_accelerator_base.h"
 #include "grid_test_support.h"
 #include "irgrid/accelerator.h"
+#include "irgrid/camera.h"
 #include "irgrid/rays.h"
 #include "irgrid/validate.h"
 
@@ -126,6 +130,66 @@ TEST(GridTraversal, AdversarialRaysOnBuiltinScenes) {
     const auto rays = adversarial_rays(scene);
     for (const char* structure : {"irregular", "two-level", "uniform"})
       expect_exact(scene, structure, {}, rays, spec);
+  }
+}
+
+template <Query kQuery>
+void expect_interleaved_equals_single(const GridView& view, const std::vector<Ray>& rays,
+                                      const char* what) {
+  std::vector<Hit> single(rays.size()), interleaved(rays.size());
+  std::vector<RayWork> single_work(rays.size()), interleaved_work(rays.size());
+  for (std::size_t i = 0; i < rays.size(); ++i) {
+    TraversalCounters counters;
+    single[i] = traverse_grid<kQuery, Cell>(view, rays[i], &counters);
+    single_work[i] = {counters.cells, counters.triangles};
+  }
+  trace_interleaved<kQuery, Cell>(view, rays, interleaved, interleaved_work);
+  EXPECT_EQ(std::memcmp(single.data(), interleaved.data(), rays.size() * sizeof(Hit)), 0) << what;
+  std::size_t same_work = 0;
+  for (std::size_t i = 0; i < rays.size(); ++i)
+    same_work += single_work[i].cells == interleaved_work[i].cells &&
+                 single_work[i].triangles == interleaved_work[i].triangles;
+  EXPECT_EQ(same_work, rays.size()) << what;
+  // Without counters: the same hits.
+  std::fill(interleaved.begin(), interleaved.end(), Hit{0, -1.f, -1.f, -1.f});
+  trace_interleaved<kQuery, Cell>(view, rays, interleaved, {});
+  EXPECT_EQ(std::memcmp(single.data(), interleaved.data(), rays.size() * sizeof(Hit)), 0) << what;
+}
+
+TEST(GridTraversal, InterleavedWalksEqualSingleWalks) {
+  // More rays than lanes, fewer, and some that miss the grid box: every ray gets the hit and
+  // the work of its own walk, whatever lane it ran in and whenever that lane was refilled.
+  for (const char* spec : {"builtin:cornell", "builtin:teapot-stadium:3000", "builtin:soup:2000"}) {
+    const Scene scene = load_scene(spec);
+    const auto grid = testing::build_test_grid(scene, BuildConfig{});
+    const GridView view = grid_view(grid, nullptr);
+    const std::vector<Ray> rays = adversarial_rays(scene);
+    const std::vector<Ray> few(rays.begin(), rays.begin() + 3);
+    for (const auto* set : {&rays, &few}) {
+      expect_interleaved_equals_single<Query::closest>(view, *set, spec);
+      expect_interleaved_equals_single<Query::any>(view, *set, spec);
+    }
+  }
+}
+
+TEST(WalkPolicy, CameraRaysAreCoherentRandomRaysAreNot) {
+  const Scene scene = load_scene("builtin:cornell");
+  const auto grid = testing::build_test_grid(scene, BuildConfig{});
+  const std::vector<Ray> camera = primary_rays(auto_camera(scene.bounds()), 256, 4);
+  const std::vector<Ray> random = random_rays(scene.bounds(), 256, 3);
+  EXPECT_TRUE(rays_are_coherent(grid.info, std::span(camera).subspan(0, 256)));
+  EXPECT_FALSE(rays_are_coherent(grid.info, random));
+  EXPECT_FALSE(rays_are_coherent(grid.info, std::span(camera).subspan(0, 1)));
+  // Both ways give the same hits and work, so the choice only changes the speed.
+  const GridView view = grid_view(grid, nullptr);
+  for (const auto* rays : {&camera, &random}) {
+    std::vector<Hit> one(rays->size()), interleaved(rays->size());
+    std::vector<RayWork> one_work(rays->size()), interleaved_work(rays->size());
+    trace_one_by_one<Query::closest, Cell>(view, *rays, one, one_work);
+    trace_interleaved<Query::closest, Cell>(view, *rays, interleaved, interleaved_work);
+    EXPECT_EQ(std::memcmp(one.data(), interleaved.data(), one.size() * sizeof(Hit)), 0);
+    EXPECT_EQ(std::memcmp(one_work.data(), interleaved_work.data(), one.size() * sizeof(RayWork)),
+              0);
   }
 }
 

@@ -9,6 +9,7 @@
 #include "core/grid/traverse.h"
 #include "cpu/cpu_executor.h"
 #include "cpu/structures.h"
+#include "cpu/walk_policy.h"
 #include "grid_accelerator_base.h"
 #include "irgrid/error.h"
 
@@ -60,17 +61,11 @@ class GridCpu final : public GridAcceleratorBase {
   template <Query kQuery, typename CellT>
   void trace_query(std::span<const Ray> rays, std::span<Hit> hits, std::span<RayWork> work) const {
     const GridView view = this->view();
-    const bool counted = !work.empty();
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rays.size(), 64), [&](const auto& range) {
-      for (std::size_t i = range.begin(); i != range.end(); ++i) {
-        if (!counted) {
-          hits[i] = traverse_grid<kQuery, CellT>(view, rays[i]);
-          continue;
-        }
-        TraversalCounters counters;
-        hits[i] = traverse_grid<kQuery, CellT>(view, rays[i], &counters);
-        work[i] = {counters.cells, counters.triangles};
-      }
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rays.size(), 256), [&](const auto& range) {
+      const std::size_t first = range.begin(), count = range.size();
+      trace_chunk<kQuery, CellT>(view, info_.memory_bytes, rays.subspan(first, count),
+                                 hits.subspan(first, count),
+                                 work.empty() ? work : work.subspan(first, count));
     });
   }
 

@@ -100,22 +100,31 @@ IRGRID_HD inline float voxel_to_world(const GridInfo& info, int a, std::int32_t 
   return info.box_lo[a] + float(v) * info.voxel_size[a];
 }
 
+/// Index of the top-level voxel-map entry holding voxel `v`.
+IRGRID_HD inline std::uint32_t top_entry_index(const GridInfo& info, Voxel v) {
+  const Voxel top{v.x >> info.shift, v.y >> info.shift, v.z >> info.shift};
+  return (std::uint32_t(top.z) * std::uint32_t(info.top_dims[1]) + std::uint32_t(top.y)) *
+             std::uint32_t(info.top_dims[0]) +
+         std::uint32_t(top.x);
+}
+
+/// Index of the child of inner entry `entry` that holds voxel `v`. `level_shift` is the shift
+/// of the entry's level (info.shift at the top); it becomes the child's.
+IRGRID_HD inline std::uint32_t child_entry_index(Entry entry, Voxel v, std::int32_t& level_shift) {
+  const std::uint32_t k = entry.log_dim(), mask = (1u << k) - 1;
+  level_shift -= std::int32_t(k);
+  const std::uint32_t cx = std::uint32_t(v.x >> level_shift) & mask;
+  const std::uint32_t cy = std::uint32_t(v.y >> level_shift) & mask;
+  const std::uint32_t cz = std::uint32_t(v.z >> level_shift) & mask;
+  return entry.index() + ((cz << k | cy) << k | cx);
+}
+
 /// The cell owning voxel `v`: one dependent 4-byte read per map level.
 IRGRID_HD inline std::uint32_t lookup_cell(const GridInfo& info, const Entry* entries, Voxel v) {
-  const Voxel top{v.x >> info.shift, v.y >> info.shift, v.z >> info.shift};
-  Entry entry =
-      entries[(std::uint32_t(top.z) * std::uint32_t(info.top_dims[1]) + std::uint32_t(top.y)) *
-                  std::uint32_t(info.top_dims[0]) +
-              std::uint32_t(top.x)];
+  Entry entry = entries[top_entry_index(info, v)];
   std::int32_t level_shift = info.shift;
-  while (entry.log_dim() != 0) {
-    const std::uint32_t k = entry.log_dim(), mask = (1u << k) - 1;
-    level_shift -= std::int32_t(k);
-    const std::uint32_t cx = std::uint32_t(v.x >> level_shift) & mask;
-    const std::uint32_t cy = std::uint32_t(v.y >> level_shift) & mask;
-    const std::uint32_t cz = std::uint32_t(v.z >> level_shift) & mask;
-    entry = entries[entry.index() + ((cz << k | cy) << k | cx)];
-  }
+  while (entry.log_dim() != 0)
+    entry = entries[child_entry_index(entry, v, level_shift)];
   return entry.index();
 }
 

@@ -110,68 +110,116 @@ IRGRID_HD inline std::int32_t voxel_at(const GridInfo& info, int a, float p) {
   return std::int32_t(min_fast(max_fast(p, 0.f), float(info.virtual_dims[a] - 1)));
 }
 
+/// One ray's walk through the grid: its constants and the voxel of the cell it is in.
+struct GridWalk {
+  WatertightRay<float> shear;  ///< the triangle test's per-ray constants
+  WalkRay walk;                ///< the cell walk's per-ray constants
+  Voxel voxel;                 ///< a voxel of the current cell (its entry voxel)
+  float t_leave;               ///< where the ray leaves the grid box, or its tmax
+  Hit best;                    ///< closest hit so far (prim kNoHit: none; t starts at tmax)
+};
+
+/// Starts the walk of `ray`: false when it misses the grid box within [tmin, tmax].
+IRGRID_HD inline bool begin_walk(const GridInfo& info, const Ray& ray, GridWalk& w) {
+  const Vec3<float> inv_dir{1.f / ray.dir[0], 1.f / ray.dir[1], 1.f / ray.dir[2]};
+  float t_enter;
+  clip_to_grid(info, ray, inv_dir, t_enter, w.t_leave);
+  if (!(t_enter <= w.t_leave)) return false;
+  w.best = {kNoHit, ray.tmax, 0.f, 0.f};
+  w.shear = make_watertight_ray<float>(ray);
+  w.walk = make_walk_ray(info, ray, inv_dir);
+  for (int a = 0; a < 3; ++a)  // a parallel axis stays at the origin (t_enter may be infinite)
+    w.voxel[a] = voxel_at(
+        info, a, w.walk.dir[a] == 0.f ? w.walk.org[a] : walk_position(info, w.walk, a, t_enter));
+  return true;
+}
+
+/// Where the walk leaves a cell: the exit box's far plane per axis and the t of each (a
+/// parallel axis is crossed at +infinity); t_exit is the nearest, capped at t_leave.
+struct CellExit {
+  std::int32_t far[3];
+  float t_axis[3];
+  float t_exit;
+};
+
+IRGRID_HD inline CellExit cell_exit(const GridWalk& w, const Cell& cell) {
+  CellExit e;
+  e.t_exit = w.t_leave;
+  for (int a = 0; a < 3; ++a) {
+    e.far[a] = w.walk.ascending[a] ? cell.hi[a] : cell.lo[a];
+    e.t_axis[a] = float(e.far[a]) * w.walk.t_per_voxel[a] + w.walk.t_at_plane0[a];
+    e.t_exit = min_fast(e.t_axis[a], e.t_exit);
+  }
+  return e;
+}
+
+/// Tests the triangles of references [begin, end) and keeps the closest hit in w.best (ties on t
+/// go to the smaller id, as in the brute force). Any hit: true as soon as one is found.
+template <Query kQuery>
+IRGRID_HD inline bool test_cell_triangles(const GridView& grid, std::uint32_t begin,
+                                          std::uint32_t end, GridWalk& w,
+                                          TraversalCounters* counters) {
+  TriangleHit<float> hit;
+  for (std::uint32_t r = begin; r < end; ++r) {
+    const std::uint32_t id = grid.refs[r];
+    const TriangleVertices& tri = grid.triangles[id];
+    if (counters) ++counters->triangles;
+    if (!intersect_watertight(w.shear, tri.p0, tri.p1, tri.p2, float(INFINITY), hit)) continue;
+    if (hit.t > w.best.t || (hit.t == w.best.t && id > w.best.prim)) continue;
+    w.best = {id, hit.t, hit.u, hit.v};
+    if constexpr (kQuery == Query::any) return true;
+  }
+  return false;
+}
+
+/// After a cell's triangles: false when the walk is over (the closest hit lies within the cell,
+/// or the ray leaves the grid); otherwise moves w.voxel into the next cell.
+IRGRID_HD inline bool step_past_cell(const GridInfo& info, const CellExit& e, GridWalk& w) {
+  if (w.best.prim != kNoHit && w.best.t <= e.t_exit) return false;
+  // t_exit is now finite and equals some t_axis exactly (min_fast skips NaN and keeps values).
+  if (!(e.t_exit < w.t_leave)) return false;
+  // Robust step: the exit axes jump in integers past the far plane, so the walk always
+  // advances; the other axes follow the exit point, clamped to the cell's extent and never
+  // stepping back, so no sliver of a cell is skipped.
+  bool inside = true;
+  for (int a = 0; a < 3; ++a) {
+    const bool up = w.walk.ascending[a];
+    std::int32_t v;
+    if (e.t_axis[a] == e.t_exit) {
+      v = up ? e.far[a] : e.far[a] - 1;
+      inside &= std::uint32_t(v) < std::uint32_t(info.virtual_dims[a]);
+    } else {
+      v = voxel_at(info, a, walk_position(info, w.walk, a, e.t_exit));
+      const std::int32_t at = w.voxel[a];
+      v = up ? (v < at ? at : (v >= e.far[a] ? e.far[a] - 1 : v))
+             : (v > at ? at : (v < e.far[a] ? e.far[a] : v));
+    }
+    w.voxel[a] = v;
+  }
+  return inside;
+}
+
+/// The walk's answer: its closest (or any) hit, or Hit{} when none.
+IRGRID_HD inline Hit walk_result(const GridWalk& w) {
+  return w.best.prim == kNoHit ? Hit{} : w.best;
+}
+
 /// Traces one ray. Closest hit: the nearest triangle in [tmin, tmax]; any hit: the first found.
 /// CellT picks the cell layout the view holds (Cell or CompactCell); the walk is the same.
 template <Query kQuery, typename CellT = Cell>
 IRGRID_HD inline Hit traverse_grid(const GridView& grid, const Ray& ray,
                                    TraversalCounters* counters = nullptr) {
-  Hit best{kNoHit, ray.tmax, 0.f, 0.f};
-  const Vec3<float> inv_dir{1.f / ray.dir[0], 1.f / ray.dir[1], 1.f / ray.dir[2]};
-  float t_enter, t_leave;
-  clip_to_grid(grid.info, ray, inv_dir, t_enter, t_leave);
-  if (!(t_enter <= t_leave)) return Hit{};
-  const auto shear = make_watertight_ray<float>(ray);
-  const WalkRay walk = make_walk_ray(grid.info, ray, inv_dir);
-  Voxel voxel;
-  for (int a = 0; a < 3; ++a)  // a parallel axis stays at the origin (t_enter may be infinite)
-    voxel[a] =
-        voxel_at(grid.info, a,
-                 walk.dir[a] == 0.f ? walk.org[a] : walk_position(grid.info, walk, a, t_enter));
+  GridWalk w;
+  if (!begin_walk(grid.info, ray, w)) return Hit{};
   const CellT* cells = cell_array<CellT>(grid);
   while (true) {
-    const Cell cell = load_cell(cells, lookup_cell(grid.info, grid.entries, voxel));
+    const Cell cell = load_cell(cells, lookup_cell(grid.info, grid.entries, w.voxel));
     if (counters) ++counters->cells;
-    // The exit box's far plane per axis; a parallel axis is crossed at +infinity.
-    std::int32_t far[3];
-    float t_axis[3], t_exit = t_leave;
-    for (int a = 0; a < 3; ++a) {
-      far[a] = walk.ascending[a] ? cell.hi[a] : cell.lo[a];
-      t_axis[a] = float(far[a]) * walk.t_per_voxel[a] + walk.t_at_plane0[a];
-      t_exit = min_fast(t_axis[a], t_exit);
-    }
-    TriangleHit<float> hit;
-    for (std::uint32_t r = cell.begin; r < cell.end; ++r) {
-      const std::uint32_t id = grid.refs[r];
-      const TriangleVertices& tri = grid.triangles[id];
-      if (counters) ++counters->triangles;
-      if (!intersect_watertight(shear, tri.p0, tri.p1, tri.p2, float(INFINITY), hit)) continue;
-      // Ties on t go to the smaller id, as in the brute force.
-      if (hit.t > best.t || (hit.t == best.t && id > best.prim)) continue;
-      best = {id, hit.t, hit.u, hit.v};
-      if constexpr (kQuery == Query::any) return best;
-    }
-    if (best.prim != kNoHit && best.t <= t_exit) return best;
-    // t_exit is now finite and equals some t_axis exactly (min_fast skips NaN and keeps values).
-    if (!(t_exit < t_leave)) break;
-    // Robust step: the exit axes jump in integers past the far plane, so the walk always
-    // advances; the other axes follow the exit point, clamped to the cell's extent and never
-    // stepping back, so no sliver of a cell is skipped.
-    bool inside = true;
-    for (int a = 0; a < 3; ++a) {
-      std::int32_t v;
-      if (t_axis[a] == t_exit) {
-        v = walk.ascending[a] ? far[a] : far[a] - 1;
-        inside &= std::uint32_t(v) < std::uint32_t(grid.info.virtual_dims[a]);
-      } else {
-        v = voxel_at(grid.info, a, walk_position(grid.info, walk, a, t_exit));
-        v = walk.ascending[a] ? (v < voxel[a] ? voxel[a] : (v >= far[a] ? far[a] - 1 : v))
-                              : (v > voxel[a] ? voxel[a] : (v < far[a] ? far[a] : v));
-      }
-      voxel[a] = v;
-    }
-    if (!inside) break;
+    const CellExit exit = cell_exit(w, cell);
+    if (test_cell_triangles<kQuery>(grid, cell.begin, cell.end, w, counters)) break;
+    if (!step_past_cell(grid.info, exit, w)) break;
   }
-  return best.prim == kNoHit ? Hit{} : best;
+  return walk_result(w);
 }
 
 }  // namespace irgrid

@@ -1,0 +1,72 @@
+// cpu/walk_policy.h: how the CPU backend walks a chunk of rays: one at a time, or interleaved.
+//
+// Interleaving (cpu/interleaved_walk.h) overlaps the cache misses of different rays, at the
+// price of bookkeeping: about 14% more time with a single lane on Sponza's primary rays. It pays
+// where the rays miss the caches: incoherent rays, and any rays on a grid far larger than the
+// caches. Coherent rays on a smaller grid read the cells their neighbours just read, so they
+// walk one at a time. Measured on the 2-core development VM (docs/benchmarks.md, 2026-12-02):
+// interleaving gave Sponza's random rays +18-30% and Crown's rays of every kind +8-35%, and
+// cost Sponza's primary rays 18%.
+#pragma once
+
+#include <cmath>
+#include <cstddef>
+#include <span>
+
+#include "core/grid/traverse.h"
+#include "cpu/interleaved_walk.h"
+#include "irgrid/accelerator.h"
+
+namespace irgrid {
+
+/// Grids up to this size walk coherent rays one at a time (above it, the caches hold too
+/// little of the grid for neighbouring rays to help each other). Sponza (26 MiB) and Conference
+/// (19 MiB) lie below, Crown (298 MiB) above.
+inline constexpr std::size_t kCoherentWalkMaxGridBytes = std::size_t(64) << 20;
+
+/// Whether most consecutive rays of `rays` start within a voxel of each other and point the
+/// same way to within about 0.8 degrees, as camera rays do.
+inline bool rays_are_coherent(const GridInfo& info, std::span<const Ray> rays) {
+  constexpr float kCosine = 0.9999f;
+  std::size_t coherent = 0;
+  for (std::size_t i = 1; i < rays.size(); ++i) {
+    const Ray& a = rays[i - 1];
+    const Ray& b = rays[i];
+    float dot = 0, aa = 0, bb = 0;
+    bool close = true;
+    for (int k = 0; k < 3; ++k) {
+      dot += a.dir[k] * b.dir[k], aa += a.dir[k] * a.dir[k], bb += b.dir[k] * b.dir[k];
+      close &= std::fabs(a.org[k] - b.org[k]) <= info.voxel_size[k];
+    }
+    coherent += close && dot > 0 && dot * dot >= kCosine * kCosine * aa * bb;
+  }
+  return rays.size() > 1 && 4 * coherent >= 3 * (rays.size() - 1);
+}
+
+/// Traces rays[i] into hits[i] one ray at a time (work[i] too when work is not empty).
+template <Query kQuery, typename CellT>
+void trace_one_by_one(const GridView& grid, std::span<const Ray> rays, std::span<Hit> hits,
+                      std::span<RayWork> work) {
+  for (std::size_t i = 0; i < rays.size(); ++i) {
+    if (work.empty()) {
+      hits[i] = traverse_grid<kQuery, CellT>(grid, rays[i]);
+      continue;
+    }
+    TraversalCounters counters;
+    hits[i] = traverse_grid<kQuery, CellT>(grid, rays[i], &counters);
+    work[i] = {counters.cells, counters.triangles};
+  }
+}
+
+/// Traces a chunk of rays the way that suits it (see the top of this file); `grid_bytes` is the
+/// size of the grid's arrays. The hits and the work do not depend on the choice.
+template <Query kQuery, typename CellT>
+void trace_chunk(const GridView& grid, std::size_t grid_bytes, std::span<const Ray> rays,
+                 std::span<Hit> hits, std::span<RayWork> work) {
+  if (grid_bytes <= kCoherentWalkMaxGridBytes && rays_are_coherent(grid.info, rays))
+    trace_one_by_one<kQuery, CellT>(grid, rays, hits, work);
+  else
+    trace_interleaved<kQuery, CellT>(grid, rays, hits, work);
+}
+
+}  // namespace irgrid
