@@ -8,6 +8,10 @@
 #include <type_traits>
 #include <utility>
 
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
+
 namespace irgrid {
 
 /// Process-wide tally of bytes held by MeteredAllocator; builds read the peak to report their
@@ -29,6 +33,21 @@ class MemoryMeter {
   static inline std::atomic<std::int64_t> current_{0}, peak_{0};
 };
 
+/// Buffers of at least this size are aligned to it and asked to be backed by transparent huge
+/// pages: the grid's arrays are read at random by incoherent rays, and with 4 KiB pages most of
+/// those reads also miss the TLB.
+inline constexpr std::size_t kHugePageBytes = std::size_t(2) << 20;
+
+/// Asks the kernel for huge pages over [p, p + bytes) (p aligned to kHugePageBytes); a no-op
+/// where transparent huge pages are off or unknown.
+inline void advise_huge_pages(void* p, std::size_t bytes) noexcept {
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+  madvise(p, (bytes + kHugePageBytes - 1) & ~(kHugePageBytes - 1), MADV_HUGEPAGE);
+#else
+  (void)p, (void)bytes;
+#endif
+}
+
 /// std::allocator that reports to MemoryMeter.
 template <typename T>
 struct MeteredAllocator {
@@ -37,13 +56,25 @@ struct MeteredAllocator {
   template <typename U>
   MeteredAllocator(const MeteredAllocator<U>&) noexcept {}
   T* allocate(std::size_t n) {
-    T* p = std::allocator<T>().allocate(n);
-    MemoryMeter::add(std::int64_t(n * sizeof(T)));
+    if (n > std::size_t(-1) / sizeof(T)) throw std::bad_array_new_length();
+    const std::size_t bytes = n * sizeof(T);
+    T* p;
+    if (bytes >= kHugePageBytes) {
+      p = static_cast<T*>(::operator new(bytes, std::align_val_t(kHugePageBytes)));
+      advise_huge_pages(p, bytes);
+    } else {
+      p = std::allocator<T>().allocate(n);
+    }
+    MemoryMeter::add(std::int64_t(bytes));
     return p;
   }
   void deallocate(T* p, std::size_t n) noexcept {
-    MemoryMeter::add(-std::int64_t(n * sizeof(T)));
-    std::allocator<T>().deallocate(p, n);
+    const std::size_t bytes = n * sizeof(T);
+    MemoryMeter::add(-std::int64_t(bytes));
+    if (bytes >= kHugePageBytes)
+      ::operator delete(p, std::align_val_t(kHugePageBytes));
+    else
+      std::allocator<T>().deallocate(p, n);
   }
   /// Default-initialises instead of value-initialising: a buffer of trivial elements is not
   /// zero-filled (the executor's contract leaves contents unspecified, and every phase writes
