@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "cpu/cpu_executor.h"
+#include "cpu/memory_meter.h"
 #include "irgrid/error.h"
 
 namespace irgrid {
@@ -332,6 +333,20 @@ TEST(CpuExecutorProfile, AccumulatesWallTimeByNameUntilReset) {
   executor.synchronize();
   executor.reset_profile();
   EXPECT_TRUE(executor.profile_ms().empty());
+}
+
+TEST(CpuExecutorBuffers, LargeBuffersAreHugePageAlignedAndMetered) {
+  CpuExecutor executor;
+  const std::int64_t before = MemoryMeter::current();
+  {
+    auto small = executor.allocate<std::uint32_t>(1000);
+    auto large = executor.allocate<std::uint32_t>(kHugePageBytes / 4 + 1);
+    EXPECT_EQ(reinterpret_cast<std::uintptr_t>(large.data()) % kHugePageBytes, 0u);
+    EXPECT_EQ(MemoryMeter::current() - before, std::int64_t(4000 + kHugePageBytes + 4));
+    large.back() = 7;  // the whole buffer is usable
+    EXPECT_EQ(large.back(), 7u);
+  }
+  EXPECT_EQ(MemoryMeter::current(), before);
 }
 
 }  // namespace
