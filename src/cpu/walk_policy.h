@@ -25,11 +25,16 @@ namespace irgrid {
 inline constexpr std::size_t kCoherentWalkMaxGridBytes = std::size_t(64) << 20;
 
 /// Whether most consecutive rays of `rays` start within a voxel of each other and point the
-/// same way to within about 0.8 degrees, as camera rays do.
+/// same way to within about 0.8 degrees, as camera rays do. Looks at up to 64 pairs spread over
+/// the chunk.
 inline bool rays_are_coherent(const GridInfo& info, std::span<const Ray> rays) {
   constexpr float kCosine = 0.9999f;
-  std::size_t coherent = 0;
-  for (std::size_t i = 1; i < rays.size(); ++i) {
+  constexpr std::size_t kSamples = 64;
+  if (rays.size() < 2) return false;
+  const std::size_t pairs = rays.size() - 1;
+  const std::size_t stride = pairs > kSamples ? pairs / kSamples : 1;
+  std::size_t sampled = 0, coherent = 0;
+  for (std::size_t i = 1; i < rays.size(); i += stride, ++sampled) {
     const Ray& a = rays[i - 1];
     const Ray& b = rays[i];
     float dot = 0, aa = 0, bb = 0;
@@ -40,7 +45,7 @@ inline bool rays_are_coherent(const GridInfo& info, std::span<const Ray> rays) {
     }
     coherent += close && dot > 0 && dot * dot >= kCosine * kCosine * aa * bb;
   }
-  return rays.size() > 1 && 4 * coherent >= 3 * (rays.size() - 1);
+  return 4 * coherent >= 3 * sampled;
 }
 
 /// Traces rays[i] into hits[i] one ray at a time (work[i] too when work is not empty).
