@@ -142,7 +142,7 @@ struct CellExit {
   float t_exit;
 };
 
-IRGRID_HD IRGRID_ALWAYS_INLINE CellExit cell_exit(const GridWalk& w, const Cell& cell) {
+IRGRID_HD inline CellExit cell_exit(const GridWalk& w, const Cell& cell) {
   CellExit e;
   e.t_exit = w.t_leave;
   for (int a = 0; a < 3; ++a) {
@@ -156,9 +156,9 @@ IRGRID_HD IRGRID_ALWAYS_INLINE CellExit cell_exit(const GridWalk& w, const Cell&
 /// Tests the triangles of references [begin, end) and keeps the closest hit in w.best (ties on t
 /// go to the smaller id, as in the brute force). Any hit: true as soon as one is found.
 template <Query kQuery>
-IRGRID_HD IRGRID_ALWAYS_INLINE bool test_cell_triangles(const GridView& grid, std::uint32_t begin,
-                                                        std::uint32_t end, GridWalk& w,
-                                                        TraversalCounters* counters) {
+IRGRID_HD inline bool test_cell_triangles(const GridView& grid, std::uint32_t begin,
+                                          std::uint32_t end, GridWalk& w,
+                                          TraversalCounters* counters) {
   TriangleHit<float> hit;
   for (std::uint32_t r = begin; r < end; ++r) {
     const std::uint32_t id = grid.refs[r];
@@ -174,8 +174,7 @@ IRGRID_HD IRGRID_ALWAYS_INLINE bool test_cell_triangles(const GridView& grid, st
 
 /// After a cell's triangles: false when the walk is over (the closest hit lies within the cell,
 /// or the ray leaves the grid); otherwise moves w.voxel into the next cell.
-IRGRID_HD IRGRID_ALWAYS_INLINE bool step_past_cell(const GridInfo& info, const CellExit& e,
-                                                   GridWalk& w) {
+IRGRID_HD inline bool step_past_cell(const GridInfo& info, const CellExit& e, GridWalk& w) {
   if (w.best.prim != kNoHit && w.best.t <= e.t_exit) return false;
   // t_exit is now finite and equals some t_axis exactly (min_fast skips NaN and keeps values).
   if (!(e.t_exit < w.t_leave)) return false;
