@@ -6,7 +6,7 @@
 // caches. Coherent rays on a smaller grid read the cells their neighbours just read, so they
 // walk one at a time. Measured on the 2-core development VM (docs/benchmarks.md, 2026-12-02):
 // interleaving gave Sponza's random rays +18-30% and Crown's rays of every kind +8-35%, and
-// cost Sponza's primary rays 18%.
+// cost Sponza's primary rays 11-28%.
 #pragma once
 
 #include <cmath>
