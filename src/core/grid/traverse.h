@@ -142,6 +142,7 @@ struct CellExit {
   float t_exit;
 };
 
+/// Where walk w leaves `cell` (through the cell's exit box).
 IRGRID_HD inline CellExit cell_exit(const GridWalk& w, const Cell& cell) {
   CellExit e;
   e.t_exit = w.t_leave;
