@@ -138,11 +138,7 @@ void expect_interleaved_equals_single(const GridView& view, const std::vector<Ra
                                       const char* what) {
   std::vector<Hit> single(rays.size()), interleaved(rays.size());
   std::vector<RayWork> single_work(rays.size()), interleaved_work(rays.size());
-  for (std::size_t i = 0; i < rays.size(); ++i) {
-    TraversalCounters counters;
-    single[i] = traverse_grid<kQuery, Cell>(view, rays[i], &counters);
-    single_work[i] = {counters.cells, counters.triangles};
-  }
+  trace_one_by_one<kQuery, Cell>(view, rays, single, single_work);
   trace_interleaved<kQuery, Cell>(view, rays, interleaved, interleaved_work);
   EXPECT_EQ(std::memcmp(single.data(), interleaved.data(), rays.size() * sizeof(Hit)), 0) << what;
   std::size_t same_work = 0;
@@ -182,15 +178,8 @@ TEST(WalkPolicy, CameraRaysAreCoherentRandomRaysAreNot) {
   EXPECT_FALSE(rays_are_coherent(grid.info, std::span(camera).subspan(0, 1)));
   // Both ways give the same hits and work, so the choice only changes the speed.
   const GridView view = grid_view(grid, nullptr);
-  for (const auto* rays : {&camera, &random}) {
-    std::vector<Hit> one(rays->size()), interleaved(rays->size());
-    std::vector<RayWork> one_work(rays->size()), interleaved_work(rays->size());
-    trace_one_by_one<Query::closest, Cell>(view, *rays, one, one_work);
-    trace_interleaved<Query::closest, Cell>(view, *rays, interleaved, interleaved_work);
-    EXPECT_EQ(std::memcmp(one.data(), interleaved.data(), one.size() * sizeof(Hit)), 0);
-    EXPECT_EQ(std::memcmp(one_work.data(), interleaved_work.data(), one.size() * sizeof(RayWork)),
-              0);
-  }
+  expect_interleaved_equals_single<Query::closest>(view, camera, "camera rays");
+  expect_interleaved_equals_single<Query::closest>(view, random, "random rays");
 }
 
 TEST(GridTraversal, RaysWithExtremeDirectionComponents) {

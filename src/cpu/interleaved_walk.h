@@ -67,10 +67,7 @@ void trace_interleaved(const GridView& grid, std::span<const Ray> rays, std::spa
 
   while (active > 0) {
     // The voxel map below the top level, one level per pass: each pass reads one entry per lane.
-    bool descending = false;
-    for (int l = 0; l < active; ++l)
-      descending |= lanes[l].entry.log_dim() != 0;
-    while (descending) {
+    for (bool descending = true; descending;) {
       descending = false;
       for (int l = 0; l < active; ++l) {
         Lane& lane = lanes[l];
