@@ -5,8 +5,10 @@
 #include <cstring>
 #include <limits>
 
+#include "core/build/compress_cells.h"
 #include "core/random.h"
 #include "cpu/interleaved_walk.h"
+#include "cpu/simd_walk.h"
 #include "cpu/walk_policy.h"
 #include "grid_accelerator_base.h"
 #include "grid_test_support.h"
@@ -133,39 +135,79 @@ TEST(GridTraversal, AdversarialRaysOnBuiltinScenes) {
   }
 }
 
-template <Query kQuery>
-void expect_interleaved_equals_single(const GridView& view, const std::vector<Ray>& rays,
-                                      const char* what) {
-  std::vector<Hit> single(rays.size()), interleaved(rays.size());
-  std::vector<RayWork> single_work(rays.size()), interleaved_work(rays.size());
-  trace_one_by_one<kQuery, Cell>(view, rays, single, single_work);
-  trace_interleaved<kQuery, Cell>(view, rays, interleaved, interleaved_work);
-  EXPECT_EQ(std::memcmp(single.data(), interleaved.data(), rays.size() * sizeof(Hit)), 0) << what;
+/// A way of walking a chunk of rays on the CPU (cpu/walk_policy.h, interleaved_walk.h,
+/// simd_walk.h); each must give every ray the hit and the work of its own walk.
+template <Query kQuery, typename CellT>
+using ChunkWalk = void (*)(const GridView&, std::span<const Ray>, std::span<Hit>,
+                           std::span<RayWork>);
+
+template <Query kQuery, typename CellT>
+void expect_walk_equals_single(ChunkWalk<kQuery, CellT> walk, const GridView& view,
+                               const std::vector<Ray>& rays, const std::string& what) {
+  std::vector<Hit> single(rays.size()), walked(rays.size());
+  std::vector<RayWork> single_work(rays.size()), walked_work(rays.size());
+  trace_one_by_one<kQuery, CellT>(view, rays, single, single_work);
+  walk(view, rays, walked, walked_work);
+  EXPECT_EQ(std::memcmp(single.data(), walked.data(), rays.size() * sizeof(Hit)), 0) << what;
   std::size_t same_work = 0;
   for (std::size_t i = 0; i < rays.size(); ++i)
-    same_work += single_work[i].cells == interleaved_work[i].cells &&
-                 single_work[i].triangles == interleaved_work[i].triangles;
+    same_work += single_work[i].cells == walked_work[i].cells &&
+                 single_work[i].triangles == walked_work[i].triangles;
   EXPECT_EQ(same_work, rays.size()) << what;
   // Without counters: the same hits.
-  std::fill(interleaved.begin(), interleaved.end(), Hit{0, -1.f, -1.f, -1.f});
-  trace_interleaved<kQuery, Cell>(view, rays, interleaved, {});
-  EXPECT_EQ(std::memcmp(single.data(), interleaved.data(), rays.size() * sizeof(Hit)), 0) << what;
+  std::fill(walked.begin(), walked.end(), Hit{0, -1.f, -1.f, -1.f});
+  walk(view, rays, walked, {});
+  EXPECT_EQ(std::memcmp(single.data(), walked.data(), rays.size() * sizeof(Hit)), 0) << what;
 }
 
-TEST(GridTraversal, InterleavedWalksEqualSingleWalks) {
-  // More rays than lanes, fewer, and some that miss the grid box: every ray gets the hit and
-  // the work of its own walk, whatever lane it ran in and whenever that lane was refilled.
+template <Query kQuery>
+void expect_interleaved_equals_single(const GridView& view, const std::vector<Ray>& rays,
+                                      const std::string& what) {
+  expect_walk_equals_single<kQuery, Cell>(trace_interleaved<kQuery, Cell>, view, rays, what);
+}
+
+/// Adversarial rays of three built-in scenes, more rays than lanes and fewer, some of them
+/// missing the grid box: every ray must get the hit and the work of its own walk, whatever lane
+/// it ran in and whenever that lane was refilled.
+template <typename Check>
+void for_adversarial_ray_sets(Check check) {
   for (const char* spec : {"builtin:cornell", "builtin:teapot-stadium:3000", "builtin:soup:2000"}) {
     const Scene scene = load_scene(spec);
     const auto grid = testing::build_test_grid(scene, BuildConfig{});
-    const GridView view = grid_view(grid, nullptr);
     const std::vector<Ray> rays = adversarial_rays(scene);
     const std::vector<Ray> few(rays.begin(), rays.begin() + 3);
-    for (const auto* set : {&rays, &few}) {
-      expect_interleaved_equals_single<Query::closest>(view, *set, spec);
-      expect_interleaved_equals_single<Query::any>(view, *set, spec);
-    }
+    for (const auto* set : {&rays, &few})
+      check(grid, *set, std::string(spec) + (set == &few ? " (3 rays)" : ""));
   }
+}
+
+TEST(GridTraversal, InterleavedWalksEqualSingleWalks) {
+  for_adversarial_ray_sets([](const auto& grid, const auto& rays, const std::string& what) {
+    const GridView view = grid_view(grid, nullptr);
+    expect_interleaved_equals_single<Query::closest>(view, rays, what);
+    expect_interleaved_equals_single<Query::any>(view, rays, what);
+  });
+}
+
+TEST(GridTraversal, SimdWalksEqualSingleWalks) {
+  if (!simd_walk_supported(GridInfo{})) GTEST_SKIP() << "this CPU has no AVX2";
+  // Both cell layouts: the full cells of the build, and the compressed ones.
+  for_adversarial_ray_sets([](const auto& grid, const auto& rays, const std::string& what) {
+    ASSERT_TRUE(simd_walk_supported(grid.info));
+    const GridView view = grid_view(grid, nullptr);
+    expect_walk_equals_single<Query::closest, Cell>(trace_simd_lanes<Query::closest, Cell>, view,
+                                                    rays, what);
+    expect_walk_equals_single<Query::any, Cell>(trace_simd_lanes<Query::any, Cell>, view, rays,
+                                                what);
+    CpuExecutor exec;
+    CpuExecutor::Buffer<CompactCell> compact;
+    compress_cells(exec, grid, compact);
+    const GridView compact_view = grid_view(grid, compact.data());
+    expect_walk_equals_single<Query::closest, CompactCell>(
+        trace_simd_lanes<Query::closest, CompactCell>, compact_view, rays, what + ", compressed");
+    expect_walk_equals_single<Query::any, CompactCell>(trace_simd_lanes<Query::any, CompactCell>,
+                                                       compact_view, rays, what + ", compressed");
+  });
 }
 
 TEST(WalkPolicy, CameraRaysAreCoherentRandomRaysAreNot) {

@@ -1,20 +1,28 @@
-// cpu/walk_policy.h: how the CPU backend walks a chunk of rays: one at a time, or interleaved.
+// cpu/walk_policy.h: how the CPU backend walks a chunk of rays: in SIMD lanes, one at a time,
+// or interleaved.
 //
+// Where the CPU has AVX2, every chunk walks in SIMD lanes (cpu/simd_walk.h): on the 2-core
+// development VM it beat the other two ways on every ray kind of Sponza and Conference
+// (docs/benchmarks.md, third 2026-12-02 session). Elsewhere the choice is between the other two.
 // Interleaving (cpu/interleaved_walk.h) overlaps the cache misses of different rays, at the
 // price of bookkeeping: about 14% more time with a single lane on Sponza's primary rays. It pays
 // where the rays miss the caches: incoherent rays, and any rays on a grid far larger than the
 // caches. Coherent rays on a smaller grid read the cells their neighbours just read, so they
-// walk one at a time. Measured on the 2-core development VM (docs/benchmarks.md, 2026-12-02):
-// interleaving gave Sponza's random rays +18-30% and Crown's rays of every kind +8-35%, and
-// cost Sponza's primary rays 11-28%.
+// walk one at a time. Measured on the same VM (docs/benchmarks.md, 2026-12-02): interleaving
+// gave Sponza's random rays +18-30% and Crown's rays of every kind +8-35%, and cost Sponza's
+// primary rays 11-28%.
 #pragma once
 
 #include <cmath>
 #include <cstddef>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <span>
 
 #include "core/grid/traverse.h"
 #include "cpu/interleaved_walk.h"
+#include "cpu/simd_walk.h"
 #include "irgrid/accelerator.h"
 
 namespace irgrid {
@@ -48,6 +56,26 @@ inline bool rays_are_coherent(const GridInfo& info, std::span<const Ray> rays) {
   return 4 * coherent >= 3 * sampled;
 }
 
+/// The ways of walking a chunk of rays. The default is the SIMD walk where the CPU has AVX2,
+/// and the choice by coherence and grid size otherwise; the environment variable
+/// IRGRID_CPU_WALK=simd|single|interleaved forces one, to compare them (the hits are the same).
+enum class CpuWalk { simd, one_by_one, interleaved };
+
+/// The walk IRGRID_CPU_WALK asks for (read once), or CpuWalk::simd when it is unset; an
+/// unknown value is ignored with a warning on stderr.
+inline CpuWalk cpu_walk_choice() {
+  static const CpuWalk choice = [] {
+    const char* value = std::getenv("IRGRID_CPU_WALK");
+    if (value == nullptr || !std::strcmp(value, "simd")) return CpuWalk::simd;
+    if (!std::strcmp(value, "single")) return CpuWalk::one_by_one;
+    if (!std::strcmp(value, "interleaved")) return CpuWalk::interleaved;
+    std::fprintf(
+        stderr, "warning: IRGRID_CPU_WALK=%s is not simd, single or interleaved; ignored\n", value);
+    return CpuWalk::simd;
+  }();
+  return choice;
+}
+
 /// Traces rays[i] into hits[i] one ray at a time (work[i] too when work is not empty).
 template <Query kQuery, typename CellT>
 void trace_one_by_one(const GridView& grid, std::span<const Ray> rays, std::span<Hit> hits,
@@ -68,6 +96,16 @@ void trace_one_by_one(const GridView& grid, std::span<const Ray> rays, std::span
 template <Query kQuery, typename CellT>
 void trace_chunk(const GridView& grid, std::size_t grid_bytes, std::span<const Ray> rays,
                  std::span<Hit> hits, std::span<RayWork> work) {
+  switch (cpu_walk_choice()) {
+    case CpuWalk::simd:
+      if (simd_walk_supported(grid.info))
+        return trace_simd_lanes<kQuery, CellT>(grid, rays, hits, work);
+      break;
+    case CpuWalk::one_by_one:
+      return trace_one_by_one<kQuery, CellT>(grid, rays, hits, work);
+    case CpuWalk::interleaved:
+      return trace_interleaved<kQuery, CellT>(grid, rays, hits, work);
+  }
   if (grid_bytes <= kCoherentWalkMaxGridBytes && rays_are_coherent(grid.info, rays))
     trace_one_by_one<kQuery, CellT>(grid, rays, hits, work);
   else

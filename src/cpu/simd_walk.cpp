@@ -1,0 +1,357 @@
+// cpu/simd_walk.cpp: the AVX2 walk of cpu/simd_walk.h.
+//
+// Every lane-wise operation below mirrors one line of core/grid/traverse.h or core/watertight.h
+// with the same float operations in the same order (no FMA: -ffp-contract=off, and AVX2 alone
+// has none), and _mm256_min_ps / _mm256_max_ps return their second operand on NaN exactly as
+// min_fast(a, b) = a < b ? a : b does. Only the headers' scalar code is compiled for the
+// baseline target; the functions of this file get AVX2 from the pragma below and run only when
+// simd_walk_supported() says the CPU has it.
+#include "cpu/simd_walk.h"
+
+#include <immintrin.h>
+
+#include <cstdint>
+
+namespace irgrid {
+
+bool simd_walk_supported(const GridInfo& info) {
+  return __builtin_cpu_supports("avx2") && std::uint64_t(info.num_triangles) * 9 < (1ull << 31);
+}
+
+#pragma GCC push_options
+#pragma GCC target("avx2")
+
+namespace {
+
+constexpr int L = kSimdWalkLanes;
+
+/// The walks' per-ray values, one array slot per lane (structure of arrays).
+struct alignas(32) Lanes {
+  float org[3][L];               // WalkRay::org
+  float dir[3][L];               // WalkRay::dir
+  float t_per_voxel[3][L];       // WalkRay::t_per_voxel
+  float t_at_plane0[3][L];       // WalkRay::t_at_plane0
+  std::int32_t ascending[3][L];  // WalkRay::ascending, as -1 (true) or 0
+  std::int32_t voxel[3][L];      // GridWalk::voxel
+  float t_leave[L];
+  float best_t[L];
+  std::int32_t best_prim[L];
+  float org_k[3][L];                // WatertightRay::org_k
+  float shear[2][L];                // WatertightRay::sx, sy
+  std::int32_t axis[3][L];          // WatertightRay::kx, ky, kz
+  std::int32_t lo[3][L], hi[3][L];  // the current cell's exit box
+  std::int32_t begin[L], end[L];    // and its references
+  std::uint32_t cell[L];
+};
+
+inline __m256 load(const float* p) {
+  return _mm256_load_ps(p);
+}
+inline __m256i load(const std::int32_t* p) {
+  return _mm256_load_si256(reinterpret_cast<const __m256i*>(p));
+}
+inline void store(std::int32_t* p, __m256i v) {
+  _mm256_store_si256(reinterpret_cast<__m256i*>(p), v);
+}
+inline __m256i as_int(__m256 v) {
+  return _mm256_castps_si256(v);
+}
+inline __m256 as_float(__m256i v) {
+  return _mm256_castsi256_ps(v);
+}
+inline std::uint32_t lane_bits(__m256i mask) {
+  return std::uint32_t(_mm256_movemask_ps(as_float(mask)));
+}
+/// All ones in the lanes whose bit is set in `bits`.
+inline __m256i lanes_of(std::uint32_t bits) {
+  const __m256i bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+  return _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(int(bits)), bit), bit);
+}
+inline __m256i gather(const void* base, __m256i index, __m256i mask) {
+  return _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), static_cast<const int*>(base), index,
+                                     mask, 4);
+}
+inline __m256 gather(const float* base, __m256i index, __m256i mask) {
+  return _mm256_mask_i32gather_ps(_mm256_setzero_ps(), base, index, as_float(mask), 4);
+}
+
+/// Copies a started scalar walk into lane l.
+void put_lane(Lanes& s, int l, const GridWalk& w) {
+  for (int a = 0; a < 3; ++a) {
+    s.org[a][l] = w.walk.org[a];
+    s.dir[a][l] = w.walk.dir[a];
+    s.t_per_voxel[a][l] = w.walk.t_per_voxel[a];
+    s.t_at_plane0[a][l] = w.walk.t_at_plane0[a];
+    s.ascending[a][l] = w.walk.ascending[a] ? -1 : 0;
+    s.voxel[a][l] = w.voxel[a];
+    s.org_k[a][l] = w.shear.org_k[a];
+  }
+  s.shear[0][l] = w.shear.sx;
+  s.shear[1][l] = w.shear.sy;
+  s.axis[0][l] = w.shear.kx;
+  s.axis[1][l] = w.shear.ky;
+  s.axis[2][l] = w.shear.kz;
+  s.t_leave[l] = w.t_leave;
+  s.best_t[l] = w.best.t;
+  s.best_prim[l] = std::int32_t(w.best.prim);
+}
+
+/// The cell index of each active lane's voxel (lookup_cell, lane-wise): one gather per level.
+void find_cells(const GridView& grid, Lanes& s, __m256i active) {
+  const GridInfo& info = grid.info;
+  const __m128i top_shift = _mm_cvtsi32_si128(info.shift);
+  const __m256i v[3] = {load(s.voxel[0]), load(s.voxel[1]), load(s.voxel[2])};
+  const __m256i top_x = _mm256_sra_epi32(v[0], top_shift);
+  const __m256i top_y = _mm256_sra_epi32(v[1], top_shift);
+  const __m256i top_z = _mm256_sra_epi32(v[2], top_shift);
+  const __m256i top = _mm256_add_epi32(
+      _mm256_mullo_epi32(
+          _mm256_add_epi32(_mm256_mullo_epi32(top_z, _mm256_set1_epi32(info.top_dims[1])), top_y),
+          _mm256_set1_epi32(info.top_dims[0])),
+      top_x);
+  __m256i entry = gather(grid.entries, top, active);
+  __m256i level_shift = _mm256_set1_epi32(info.shift);
+  const __m256i zero = _mm256_setzero_si256(), one = _mm256_set1_epi32(1);
+  __m256i inner = _mm256_and_si256(active, _mm256_cmpgt_epi32(_mm256_srli_epi32(entry, 30), zero));
+  while (!_mm256_testz_si256(inner, inner)) {
+    const __m256i k = _mm256_srli_epi32(entry, 30);  // 0 in leaf and idle lanes
+    const __m256i mask = _mm256_sub_epi32(_mm256_sllv_epi32(one, k), one);
+    level_shift = _mm256_sub_epi32(level_shift, k);
+    const __m256i cx = _mm256_and_si256(_mm256_srav_epi32(v[0], level_shift), mask);
+    const __m256i cy = _mm256_and_si256(_mm256_srav_epi32(v[1], level_shift), mask);
+    const __m256i cz = _mm256_and_si256(_mm256_srav_epi32(v[2], level_shift), mask);
+    const __m256i child =
+        _mm256_or_si256(_mm256_sllv_epi32(_mm256_or_si256(_mm256_sllv_epi32(cz, k), cy), k), cx);
+    const __m256i index =
+        _mm256_add_epi32(_mm256_and_si256(entry, _mm256_set1_epi32(int(kMaxEntryTarget))), child);
+    entry = _mm256_mask_i32gather_epi32(entry, reinterpret_cast<const int*>(grid.entries), index,
+                                        inner, 4);
+    inner = _mm256_and_si256(inner, _mm256_cmpgt_epi32(_mm256_srli_epi32(entry, 30), zero));
+  }
+  store(reinterpret_cast<std::int32_t*>(s.cell),
+        _mm256_and_si256(entry, _mm256_set1_epi32(int(kMaxEntryTarget))));
+}
+
+/// cell_exit, lane-wise: the far plane and its t per axis, and the nearest t capped at t_leave.
+struct LaneExit {
+  __m256i far[3];
+  __m256 t_axis[3];
+  __m256 t_exit;
+};
+
+LaneExit cell_exits(const Lanes& s) {
+  LaneExit e;
+  e.t_exit = load(s.t_leave);
+  for (int a = 0; a < 3; ++a) {
+    e.far[a] = _mm256_blendv_epi8(load(s.lo[a]), load(s.hi[a]), load(s.ascending[a]));
+    e.t_axis[a] = _mm256_add_ps(_mm256_mul_ps(_mm256_cvtepi32_ps(e.far[a]), load(s.t_per_voxel[a])),
+                                load(s.t_at_plane0[a]));
+    e.t_exit = _mm256_min_ps(e.t_axis[a], e.t_exit);
+  }
+  return e;
+}
+
+/// A batch of up to kSimdWalkLanes triangle tests, packed from the cells of all lanes in order:
+/// slot p tests triangle prim[p] against the ray of lane lane[p].
+struct alignas(32) TestBatch {
+  std::int32_t lane[L] = {};  // the slots past `size` stay valid for the permutes
+  std::uint32_t prim[L] = {};
+  int size = 0;
+};
+
+/// Slots of `batch` whose triangle certainly misses its lane's ray: the sheared edge functions
+/// u, v, w of intersect_watertight are all numbers and of mixed nonzero signs (bit p for slot
+/// p). The other slots take the scalar test, which computes the same values.
+std::uint32_t sign_test_misses(const GridView& grid, const Lanes& s, const TestBatch& batch) {
+  const __m256i slots = lanes_of((1u << batch.size) - 1);
+  const float* coords = &grid.triangles[0].p0.x;
+  const __m256i lane = load(batch.lane);
+  const __m256i prim = load(reinterpret_cast<const std::int32_t*>(batch.prim));
+  const __m256i base = _mm256_add_epi32(_mm256_slli_epi32(prim, 3), prim);  // 9 floats each
+  // Each slot takes its lane's ray constants.
+  const auto ray_int = [&](const std::int32_t* v) {
+    return _mm256_permutevar8x32_epi32(load(v), lane);
+  };
+  const auto ray_float = [&](const float* v) { return _mm256_permutevar8x32_ps(load(v), lane); };
+  const __m256i kx = ray_int(s.axis[0]), ky = ray_int(s.axis[1]), kz = ray_int(s.axis[2]);
+  const __m256 ox = ray_float(s.org_k[0]), oy = ray_float(s.org_k[1]), oz = ray_float(s.org_k[2]);
+  const __m256 sx = ray_float(s.shear[0]), sy = ray_float(s.shear[1]);
+  __m256 x[3], y[3];
+  for (int j = 0; j < 3; ++j) {  // shear_vertex for p0, p1, p2
+    const __m256i vertex = _mm256_add_epi32(base, _mm256_set1_epi32(3 * j));
+    const __m256 px = gather(coords, _mm256_add_epi32(vertex, kx), slots);
+    const __m256 py = gather(coords, _mm256_add_epi32(vertex, ky), slots);
+    const __m256 pz = _mm256_sub_ps(gather(coords, _mm256_add_epi32(vertex, kz), slots), oz);
+    x[j] = _mm256_sub_ps(_mm256_sub_ps(px, ox), _mm256_mul_ps(sx, pz));
+    y[j] = _mm256_sub_ps(_mm256_sub_ps(py, oy), _mm256_mul_ps(sy, pz));
+  }
+  // a = p0, b = p1, c = p2: u = c_x b_y - c_y b_x, v = a_x c_y - a_y c_x, w = b_x a_y - b_y a_x.
+  const __m256 u = _mm256_sub_ps(_mm256_mul_ps(x[2], y[1]), _mm256_mul_ps(y[2], x[1]));
+  const __m256 v = _mm256_sub_ps(_mm256_mul_ps(x[0], y[2]), _mm256_mul_ps(y[0], x[2]));
+  const __m256 w = _mm256_sub_ps(_mm256_mul_ps(x[1], y[0]), _mm256_mul_ps(y[1], x[0]));
+  const __m256 zero = _mm256_setzero_ps();
+  const __m256 negative = _mm256_or_ps(
+      _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_LT_OQ), _mm256_cmp_ps(v, zero, _CMP_LT_OQ)),
+      _mm256_cmp_ps(w, zero, _CMP_LT_OQ));
+  const __m256 positive = _mm256_or_ps(
+      _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_GT_OQ), _mm256_cmp_ps(v, zero, _CMP_GT_OQ)),
+      _mm256_cmp_ps(w, zero, _CMP_GT_OQ));
+  const __m256 numbers =
+      _mm256_and_ps(_mm256_cmp_ps(u, v, _CMP_ORD_Q), _mm256_cmp_ps(w, w, _CMP_ORD_Q));
+  return lane_bits(
+      _mm256_and_si256(slots, as_int(_mm256_and_ps(_mm256_and_ps(negative, positive), numbers))));
+}
+
+/// step_past_cell, lane-wise, for lanes whose walk goes on; returns the lanes whose walk ends
+/// (the closest hit lies within the cell, or the ray leaves the grid).
+__m256i step_lanes(const GridInfo& info, Lanes& s, const LaneExit& e) {
+  const __m256 best_t = load(s.best_t);
+  const __m256i has_hit = _mm256_xor_si256(
+      _mm256_cmpeq_epi32(load(s.best_prim), _mm256_set1_epi32(int(kNoHit))), _mm256_set1_epi32(-1));
+  __m256i ends = _mm256_and_si256(has_hit, as_int(_mm256_cmp_ps(best_t, e.t_exit, _CMP_LE_OQ)));
+  ends = _mm256_or_si256(ends, as_int(_mm256_cmp_ps(e.t_exit, load(s.t_leave), _CMP_NLT_UQ)));
+  __m256i outside = _mm256_setzero_si256();
+  const __m256i minus_one = _mm256_set1_epi32(-1);
+  for (int a = 0; a < 3; ++a) {
+    const __m256i up = load(s.ascending[a]);
+    const __m256i is_exit = as_int(_mm256_cmp_ps(e.t_axis[a], e.t_exit, _CMP_EQ_OQ));
+    const __m256i far = e.far[a], far_below = _mm256_add_epi32(far, minus_one);
+    const __m256i dims = _mm256_set1_epi32(info.virtual_dims[a]);
+    // The exit axis: past the far plane; outside the grid when not in [0, dims).
+    const __m256i jumped = _mm256_blendv_epi8(far_below, far, up);
+    // The other axes: voxel_at(walk_position(t_exit)), kept within the cell and never back.
+    const __m256 p =
+        _mm256_add_ps(load(s.org[a]), _mm256_mul_ps(_mm256_mul_ps(e.t_exit, load(s.dir[a])),
+                                                    _mm256_set1_ps(info.inv_voxel_size[a])));
+    const __m256 clamped = _mm256_min_ps(_mm256_max_ps(p, _mm256_setzero_ps()),
+                                         _mm256_set1_ps(float(info.virtual_dims[a] - 1)));
+    const __m256i v = _mm256_cvttps_epi32(clamped);
+    const __m256i at = load(s.voxel[a]);
+    const __m256i up_v =
+        _mm256_blendv_epi8(_mm256_blendv_epi8(v, far_below, _mm256_cmpgt_epi32(v, far_below)), at,
+                           _mm256_cmpgt_epi32(at, v));
+    const __m256i down_v = _mm256_blendv_epi8(
+        _mm256_blendv_epi8(v, far, _mm256_cmpgt_epi32(far, v)), at, _mm256_cmpgt_epi32(v, at));
+    const __m256i followed = _mm256_blendv_epi8(down_v, up_v, up);
+    store(s.voxel[a], _mm256_blendv_epi8(followed, jumped, is_exit));
+    const __m256i in_grid =
+        _mm256_and_si256(_mm256_cmpgt_epi32(jumped, minus_one), _mm256_cmpgt_epi32(dims, jumped));
+    outside = _mm256_or_si256(outside, _mm256_andnot_si256(in_grid, is_exit));
+  }
+  return _mm256_or_si256(ends, outside);
+}
+
+}  // namespace
+
+template <Query kQuery, typename CellT>
+void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span<Hit> hits,
+                      std::span<RayWork> work) {
+  const CellT* cells = cell_array<CellT>(grid);
+  const bool counted = !work.empty();
+  Lanes s;
+  GridWalk walks[L];
+  std::uint32_t ray_of[L];
+  TraversalCounters counters[L];
+  std::size_t next = 0;
+  // Gives lane l the next ray that enters the grid (the others are answered at once); false when
+  // no ray is left.
+  const auto start = [&](int l) {
+    for (; next < rays.size(); ++next) {
+      if (begin_walk(grid.info, rays[next], walks[l])) {
+        ray_of[l] = std::uint32_t(next++);
+        counters[l] = {};
+        put_lane(s, l, walks[l]);
+        return true;
+      }
+      hits[next] = Hit{};
+      if (counted) work[next] = {};
+    }
+    return false;
+  };
+  std::uint32_t active = 0;
+  for (int l = 0; l < L && start(l); ++l)
+    active |= 1u << l;
+
+  while (active != 0) {
+    const __m256i lanes = lanes_of(active);
+    find_cells(grid, s, lanes);
+    for (std::uint32_t bits = active; bits != 0; bits &= bits - 1) {
+      const int l = __builtin_ctz(bits);
+      const Cell cell = load_cell(cells, s.cell[l]);
+      for (int a = 0; a < 3; ++a) {
+        s.lo[a][l] = cell.lo[a];
+        s.hi[a][l] = cell.hi[a];
+      }
+      s.begin[l] = std::int32_t(cell.begin);
+      s.end[l] = std::int32_t(cell.end);
+    }
+    // The triangles of all lanes are requested before the first test waits on one of them.
+    for (std::uint32_t bits = active; bits != 0; bits &= bits - 1) {
+      const int l = __builtin_ctz(bits);
+      for (std::int32_t r = s.begin[l]; r < s.end[l]; ++r)
+        __builtin_prefetch(&grid.triangles[grid.refs[r]]);
+    }
+    const LaneExit exit = cell_exits(s);
+
+    // The triangles, packed into batches across lanes, each lane's in its reference order.
+    std::int32_t tests[L] = {};
+    std::uint32_t hit_lanes = 0;  // any hit: lanes that found one, done with this cell
+    TestBatch batch;
+    const auto run_batch = [&] {
+      const std::uint32_t misses = sign_test_misses(grid, s, batch);
+      for (int p = 0; p < batch.size; ++p) {
+        const int l = batch.lane[p];
+        if (kQuery == Query::any && (hit_lanes >> l & 1)) continue;
+        ++tests[l];
+        if (misses >> p & 1) continue;
+        const std::uint32_t id = batch.prim[p];
+        const TriangleVertices& tri = grid.triangles[id];
+        GridWalk& w = walks[l];
+        TriangleHit<float> hit;
+        if (!intersect_watertight(w.shear, tri.p0, tri.p1, tri.p2, float(INFINITY), hit)) continue;
+        if (hit.t > w.best.t || (hit.t == w.best.t && id > w.best.prim)) continue;
+        w.best = {id, hit.t, hit.u, hit.v};
+        s.best_t[l] = hit.t;
+        s.best_prim[l] = std::int32_t(id);
+        if constexpr (kQuery == Query::any) hit_lanes |= 1u << l;
+      }
+      batch.size = 0;
+    };
+    for (std::uint32_t bits = active; bits != 0; bits &= bits - 1) {
+      const int l = __builtin_ctz(bits);
+      for (std::int32_t r = s.begin[l]; r < s.end[l]; ++r) {
+        if (kQuery == Query::any && (hit_lanes >> l & 1)) break;
+        batch.lane[batch.size] = l;
+        batch.prim[batch.size] = grid.refs[r];
+        if (++batch.size == L) run_batch();
+      }
+    }
+    if (batch.size > 0) run_batch();
+
+    const std::uint32_t ended = (lane_bits(step_lanes(grid.info, s, exit)) | hit_lanes) & active;
+    for (std::uint32_t bits = active; bits != 0; bits &= bits - 1) {
+      const int l = __builtin_ctz(bits);
+      ++counters[l].cells;
+      counters[l].triangles += std::uint32_t(tests[l]);
+    }
+    for (std::uint32_t bits = ended; bits != 0; bits &= bits - 1) {
+      const int l = __builtin_ctz(bits);
+      hits[ray_of[l]] = walk_result(walks[l]);
+      if (counted) work[ray_of[l]] = {counters[l].cells, counters[l].triangles};
+      if (!start(l)) active &= ~(1u << l);
+    }
+  }
+}
+
+template void trace_simd_lanes<Query::closest, Cell>(const GridView&, std::span<const Ray>,
+                                                     std::span<Hit>, std::span<RayWork>);
+template void trace_simd_lanes<Query::any, Cell>(const GridView&, std::span<const Ray>,
+                                                 std::span<Hit>, std::span<RayWork>);
+template void trace_simd_lanes<Query::closest, CompactCell>(const GridView&, std::span<const Ray>,
+                                                            std::span<Hit>, std::span<RayWork>);
+template void trace_simd_lanes<Query::any, CompactCell>(const GridView&, std::span<const Ray>,
+                                                        std::span<Hit>, std::span<RayWork>);
+
+#pragma GCC pop_options
+
+}  // namespace irgrid
