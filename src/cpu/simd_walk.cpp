@@ -151,22 +151,26 @@ LaneExit cell_exits(const Lanes& s) {
   return e;
 }
 
-/// A batch of up to kSimdWalkLanes triangle tests, packed from the cells of all lanes in order:
-/// slot p tests triangle prim[p] against the ray of lane lane[p].
-struct alignas(32) TestBatch {
-  std::int32_t lane[L] = {};  // the slots past `size` stay valid for the permutes
-  std::uint32_t prim[L] = {};
+/// The triangle tests of one round, packed from the cells of all lanes, each lane's in its
+/// reference order: test p is triangle prim[p] against the ray of lane lane[p]. They run in
+/// batches of kSimdWalkLanes.
+struct alignas(32) TestList {
+  static constexpr int kCapacity = 16 * L;
+  std::int32_t lane[kCapacity] = {};  // slots past `size` stay valid for the permutes
+  std::uint32_t prim[kCapacity] = {};
   int size = 0;
 };
 
-/// Slots of `batch` whose triangle certainly misses its lane's ray: the sheared edge functions
-/// u, v, w of intersect_watertight are all numbers and of mixed nonzero signs (bit p for slot
-/// p). The other slots take the scalar test, which computes the same values.
-std::uint32_t sign_test_misses(const GridView& grid, const Lanes& s, const TestBatch& batch) {
-  const __m256i slots = lanes_of((1u << batch.size) - 1);
+/// Tests first + p (p < count <= kSimdWalkLanes, first a multiple of it) of `tests` whose
+/// triangle certainly misses its lane's ray, as bit p: the sheared edge functions u, v, w of
+/// intersect_watertight are all numbers and of mixed nonzero signs. The other tests take the
+/// scalar test, which computes the same values.
+std::uint32_t sign_test_misses(const GridView& grid, const Lanes& s, const TestList& tests,
+                               int first, int count) {
+  const __m256i slots = lanes_of((1u << count) - 1);
   const float* coords = &grid.triangles[0].p0.x;
-  const __m256i lane = load(batch.lane);
-  const __m256i prim = load(reinterpret_cast<const std::int32_t*>(batch.prim));
+  const __m256i lane = load(tests.lane + first);
+  const __m256i prim = load(reinterpret_cast<const std::int32_t*>(tests.prim + first));
   const __m256i base = _mm256_add_epi32(_mm256_slli_epi32(prim, 3), prim);  // 9 floats each
   // Each slot takes its lane's ray constants.
   const auto ray_int = [&](const std::int32_t* v) {
@@ -252,6 +256,7 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
   GridWalk walks[L];
   std::uint32_t ray_of[L];
   TraversalCounters counters[L];
+  TestList list;
   std::size_t next = 0;
   // Gives lane l the next ray that enters the grid (the others are answered at once); false when
   // no ray is left.
@@ -285,54 +290,54 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
       s.begin[l] = std::int32_t(cell.begin);
       s.end[l] = std::int32_t(cell.end);
     }
-    // The triangles of all lanes are requested before the first test waits on one of them.
-    for (std::uint32_t bits = active; bits != 0; bits &= bits - 1) {
-      const int l = __builtin_ctz(bits);
-      for (std::int32_t r = s.begin[l]; r < s.end[l]; ++r)
-        __builtin_prefetch(&grid.triangles[grid.refs[r]]);
-    }
     const LaneExit exit = cell_exits(s);
 
-    // The triangles, packed into batches across lanes, each lane's in its reference order.
-    std::int32_t tests[L] = {};
+    // The triangles: all lanes' tests are listed, and their triangles requested, before the
+    // first test waits on one of them.
+    std::int32_t tested[L] = {};
     std::uint32_t hit_lanes = 0;  // any hit: lanes that found one, done with this cell
-    TestBatch batch;
-    const auto run_batch = [&] {
-      const std::uint32_t misses = sign_test_misses(grid, s, batch);
-      for (int p = 0; p < batch.size; ++p) {
-        const int l = batch.lane[p];
-        if (kQuery == Query::any && (hit_lanes >> l & 1)) continue;
-        ++tests[l];
-        if (misses >> p & 1) continue;
-        const std::uint32_t id = batch.prim[p];
-        const TriangleVertices& tri = grid.triangles[id];
-        GridWalk& w = walks[l];
-        TriangleHit<float> hit;
-        if (!intersect_watertight(w.shear, tri.p0, tri.p1, tri.p2, float(INFINITY), hit)) continue;
-        if (hit.t > w.best.t || (hit.t == w.best.t && id > w.best.prim)) continue;
-        w.best = {id, hit.t, hit.u, hit.v};
-        s.best_t[l] = hit.t;
-        s.best_prim[l] = std::int32_t(id);
-        if constexpr (kQuery == Query::any) hit_lanes |= 1u << l;
+    const auto run_tests = [&] {
+      for (int first = 0; first < list.size; first += L) {
+        const int count = list.size - first < L ? list.size - first : L;
+        const std::uint32_t misses = sign_test_misses(grid, s, list, first, count);
+        for (int p = 0; p < count; ++p) {
+          const int l = list.lane[first + p];
+          if (kQuery == Query::any && (hit_lanes >> l & 1)) continue;
+          ++tested[l];
+          if (misses >> p & 1) continue;
+          const std::uint32_t id = list.prim[first + p];
+          const TriangleVertices& tri = grid.triangles[id];
+          GridWalk& w = walks[l];
+          TriangleHit<float> hit;
+          if (!intersect_watertight(w.shear, tri.p0, tri.p1, tri.p2, float(INFINITY), hit))
+            continue;
+          if (hit.t > w.best.t || (hit.t == w.best.t && id > w.best.prim)) continue;
+          w.best = {id, hit.t, hit.u, hit.v};
+          s.best_t[l] = hit.t;
+          s.best_prim[l] = std::int32_t(id);
+          if constexpr (kQuery == Query::any) hit_lanes |= 1u << l;
+        }
       }
-      batch.size = 0;
+      list.size = 0;
     };
     for (std::uint32_t bits = active; bits != 0; bits &= bits - 1) {
       const int l = __builtin_ctz(bits);
       for (std::int32_t r = s.begin[l]; r < s.end[l]; ++r) {
         if (kQuery == Query::any && (hit_lanes >> l & 1)) break;
-        batch.lane[batch.size] = l;
-        batch.prim[batch.size] = grid.refs[r];
-        if (++batch.size == L) run_batch();
+        const std::uint32_t id = grid.refs[r];
+        __builtin_prefetch(&grid.triangles[id]);
+        list.lane[list.size] = l;
+        list.prim[list.size] = id;
+        if (++list.size == TestList::kCapacity) run_tests();
       }
     }
-    if (batch.size > 0) run_batch();
+    if (list.size > 0) run_tests();
 
     const std::uint32_t ended = (lane_bits(step_lanes(grid.info, s, exit)) | hit_lanes) & active;
     for (std::uint32_t bits = active; bits != 0; bits &= bits - 1) {
       const int l = __builtin_ctz(bits);
       ++counters[l].cells;
-      counters[l].triangles += std::uint32_t(tests[l]);
+      counters[l].triangles += std::uint32_t(tested[l]);
     }
     for (std::uint32_t bits = ended; bits != 0; bits &= bits - 1) {
       const int l = __builtin_ctz(bits);
