@@ -135,6 +135,17 @@ TEST(GridTraversal, AdversarialRaysOnBuiltinScenes) {
   }
 }
 
+/// Random rays with tiny, subnormal and huge direction components.
+std::vector<Ray> extreme_direction_rays(const Scene& scene) {
+  std::vector<Ray> rays = random_rays(scene.bounds(), 600, 17);
+  const float extremes[] = {1e-30f, -1e-39f, 1e-45f, 3e30f, -3e38f};
+  for (std::size_t i = 0; i < rays.size(); ++i) {
+    rays[i].dir[i % 3] = extremes[i % 5];
+    if (i % 4 == 0) rays[i].dir[(i + 1) % 3] = extremes[(i / 5) % 5];
+  }
+  return rays;
+}
+
 /// A way of walking a chunk of rays on the CPU (cpu/walk_policy.h, interleaved_walk.h,
 /// simd_walk.h); each must give every ray the hit and the work of its own walk.
 template <Query kQuery, typename CellT>
@@ -167,8 +178,8 @@ void expect_interleaved_equals_single(const GridView& view, const std::vector<Ra
 }
 
 /// Adversarial rays of three built-in scenes, more rays than lanes and fewer, some of them
-/// missing the grid box: every ray must get the hit and the work of its own walk, whatever lane
-/// it ran in and whenever that lane was refilled.
+/// missing the grid box, and rays with extreme directions: every ray must get the hit and the work
+/// of its own walk, whatever lane it ran in and whenever that lane was refilled.
 template <typename Check>
 void for_adversarial_ray_sets(Check check) {
   for (const char* spec : {"builtin:cornell", "builtin:teapot-stadium:3000", "builtin:soup:2000"}) {
@@ -176,8 +187,10 @@ void for_adversarial_ray_sets(Check check) {
     const auto grid = testing::build_test_grid(scene, BuildConfig{});
     const std::vector<Ray> rays = adversarial_rays(scene);
     const std::vector<Ray> few(rays.begin(), rays.begin() + 3);
-    for (const auto* set : {&rays, &few})
-      check(grid, *set, std::string(spec) + (set == &few ? " (3 rays)" : ""));
+    const std::vector<Ray> extreme = extreme_direction_rays(scene);
+    check(grid, rays, spec);
+    check(grid, few, std::string(spec) + " (3 rays)");
+    check(grid, extreme, std::string(spec) + " (extreme directions)");
   }
 }
 
@@ -229,12 +242,7 @@ TEST(GridTraversal, RaysWithExtremeDirectionComponents) {
   // neither stall the walk nor send it off the ray's path.
   for (const char* spec : {"builtin:cornell", "builtin:teapot-stadium:3000"}) {
     const Scene scene = load_scene(spec);
-    std::vector<Ray> rays = random_rays(scene.bounds(), 600, 17);
-    const float extremes[] = {1e-30f, -1e-39f, 1e-45f, 3e30f, -3e38f};
-    for (std::size_t i = 0; i < rays.size(); ++i) {
-      rays[i].dir[i % 3] = extremes[i % 5];
-      if (i % 4 == 0) rays[i].dir[(i + 1) % 3] = extremes[(i / 5) % 5];
-    }
+    const std::vector<Ray> rays = extreme_direction_rays(scene);
     expect_exact(scene, "irregular", {}, rays, spec);
     expect_exact(scene, "brute", {}, rays, spec);
   }

@@ -34,10 +34,11 @@ struct alignas(32) Lanes {
   std::int32_t ascending[3][L];  // WalkRay::ascending, as -1 (true) or 0
   std::int32_t voxel[3][L];      // GridWalk::voxel
   float t_leave[L];
-  float best_t[L];
+  float best_t[L], best_u[L], best_v[L];  // GridWalk::best
   std::int32_t best_prim[L];
   float org_k[3][L];                // WatertightRay::org_k
-  float shear[2][L];                // WatertightRay::sx, sy
+  float shear[3][L];                // WatertightRay::sx, sy, sz
+  float tmin[L], tmax[L];           // WatertightRay::tmin, tmax
   std::int32_t axis[3][L];          // WatertightRay::kx, ky, kz
   std::int32_t lo[3][L], hi[3][L];  // the current cell's exit box
   std::int32_t begin[L], end[L];    // and its references
@@ -75,25 +76,127 @@ inline __m256 gather(const float* base, __m256i index, __m256i mask) {
   return _mm256_mask_i32gather_ps(_mm256_setzero_ps(), base, index, as_float(mask), 4);
 }
 
-/// Copies a started scalar walk into lane l.
-void put_lane(Lanes& s, int l, const GridWalk& w) {
+/// Per lane: a if the lane's bit of `mask` is clear, b if it is set.
+inline __m256 select(__m256i mask, __m256 a, __m256 b) {
+  return _mm256_blendv_ps(a, b, as_float(mask));
+}
+inline __m256i select(__m256i mask, __m256i a, __m256i b) {
+  return _mm256_blendv_epi8(a, b, mask);
+}
+/// Per lane: v[k] for k in 0..2.
+inline __m256 pick(const __m256 v[3], __m256i k) {
+  return select(_mm256_cmpeq_epi32(k, _mm256_set1_epi32(2)),
+                select(_mm256_cmpeq_epi32(k, _mm256_set1_epi32(1)), v[0], v[1]), v[2]);
+}
+
+/// Stores `value` into the lanes of `slot` selected by `mask`.
+inline void keep(__m256i mask, float* slot, __m256 value) {
+  _mm256_store_ps(slot, select(mask, load(slot), value));
+}
+inline void keep(__m256i mask, std::int32_t* slot, __m256i value) {
+  store(slot, select(mask, load(slot), value));
+}
+
+/// begin_walk, lane-wise, for the lanes of `starting`, ray rays[l] in lane l (read with gathers
+/// relative to `rays`); writes their walks into s and returns the lanes whose ray enters the
+/// grid (begin_walk true).
+__m256i begin_walks(const GridInfo& info, const Ray* rays, const std::int32_t* ray_offsets,
+                    Lanes& s, __m256i starting) {
+  const float* base = &rays[0].org[0];
+  const __m256i field = _mm256_slli_epi32(load(ray_offsets), 3);  // 8 floats per ray
+  const auto read = [&](int f) {
+    return gather(base, _mm256_add_epi32(field, _mm256_set1_epi32(f)), starting);
+  };
+  const __m256 org[3] = {read(0), read(1), read(2)}, tmin = read(3);
+  const __m256 dir[3] = {read(4), read(5), read(6)}, tmax = read(7);
+  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.f);
+  const __m256 infinity = _mm256_set1_ps(INFINITY);
+  const __m256 all_ones = as_float(_mm256_set1_epi32(-1));
+  __m256 inv_dir[3];
+  for (int a = 0; a < 3; ++a)
+    inv_dir[a] = _mm256_div_ps(one, dir[a]);
+  // clip_to_grid
+  __m256 t_enter = tmin, t_leave = tmax;
   for (int a = 0; a < 3; ++a) {
-    s.org[a][l] = w.walk.org[a];
-    s.dir[a][l] = w.walk.dir[a];
-    s.t_per_voxel[a][l] = w.walk.t_per_voxel[a];
-    s.t_at_plane0[a][l] = w.walk.t_at_plane0[a];
-    s.ascending[a][l] = w.walk.ascending[a] ? -1 : 0;
-    s.voxel[a][l] = w.voxel[a];
-    s.org_k[a][l] = w.shear.org_k[a];
+    const __m256 lo = _mm256_set1_ps(info.box_lo[a]), hi = _mm256_set1_ps(info.box_hi[a]);
+    const __m256i flat = as_int(_mm256_cmp_ps(dir[a], zero, _CMP_EQ_OQ));
+    const __m256i outside = as_int(
+        _mm256_or_ps(_mm256_cmp_ps(org[a], lo, _CMP_LT_OQ), _mm256_cmp_ps(org[a], hi, _CMP_GT_OQ)));
+    __m256 t0 = _mm256_mul_ps(_mm256_sub_ps(lo, org[a]), inv_dir[a]);
+    __m256 t1 = _mm256_mul_ps(_mm256_sub_ps(hi, org[a]), inv_dir[a]);
+    const __m256i swap = as_int(_mm256_cmp_ps(t0, t1, _CMP_GT_OQ));
+    const __m256 near = select(swap, t0, t1), far = select(swap, t1, t0);
+    t0 = near;
+    t1 = far;
+    const __m256i missed = _mm256_and_si256(flat, outside);
+    t_enter = select(flat, _mm256_max_ps(t0, t_enter), select(missed, t_enter, one));
+    t_leave = select(flat, _mm256_min_ps(t1, t_leave), select(missed, t_leave, zero));
   }
-  s.shear[0][l] = w.shear.sx;
-  s.shear[1][l] = w.shear.sy;
-  s.axis[0][l] = w.shear.kx;
-  s.axis[1][l] = w.shear.ky;
-  s.axis[2][l] = w.shear.kz;
-  s.t_leave[l] = w.t_leave;
-  s.best_t[l] = w.best.t;
-  s.best_prim[l] = std::int32_t(w.best.prim);
+  const __m256i enters =
+      _mm256_and_si256(starting, as_int(_mm256_cmp_ps(t_enter, t_leave, _CMP_LE_OQ)));
+  // make_watertight_ray
+  __m256 magnitude[3];
+  for (int a = 0; a < 3; ++a)
+    magnitude[a] = select(as_int(_mm256_cmp_ps(dir[a], zero, _CMP_LT_OQ)), dir[a],
+                          _mm256_sub_ps(zero, dir[a]));
+  const __m256i x_largest =
+      as_int(_mm256_and_ps(_mm256_cmp_ps(magnitude[0], magnitude[1], _CMP_GE_OQ),
+                           _mm256_cmp_ps(magnitude[0], magnitude[2], _CMP_GE_OQ)));
+  const __m256i y_over_z = as_int(_mm256_cmp_ps(magnitude[1], magnitude[2], _CMP_GE_OQ));
+  const __m256i c0 = _mm256_setzero_si256(), c1 = _mm256_set1_epi32(1), c2 = _mm256_set1_epi32(2);
+  const __m256i kz = select(x_largest, select(y_over_z, c2, c1), c0);
+  const __m256i kx0 = select(_mm256_cmpeq_epi32(kz, c2), _mm256_add_epi32(kz, c1), c0);
+  const __m256i ky0 = select(_mm256_cmpeq_epi32(kx0, c2), _mm256_add_epi32(kx0, c1), c0);
+  const __m256 dir_z = pick(dir, kz);
+  const __m256i flip = as_int(_mm256_cmp_ps(dir_z, zero, _CMP_LT_OQ));
+  const __m256i kx = select(flip, kx0, ky0), ky = select(flip, ky0, kx0);
+  const __m256 shear[3] = {_mm256_div_ps(pick(dir, kx), dir_z), _mm256_div_ps(pick(dir, ky), dir_z),
+                           _mm256_div_ps(one, dir_z)};
+  const __m256i axis[3] = {kx, ky, kz};
+  for (int k = 0; k < 3; ++k) {
+    keep(enters, s.org_k[k], pick(org, axis[k]));
+    keep(enters, s.shear[k], shear[k]);
+    keep(enters, s.axis[k], axis[k]);
+  }
+  keep(enters, s.tmin, tmin);
+  keep(enters, s.tmax, tmax);
+  keep(enters, s.t_leave, t_leave);
+  keep(enters, s.best_t, tmax);
+  keep(enters, s.best_u, zero);
+  keep(enters, s.best_v, zero);
+  keep(enters, s.best_prim, _mm256_set1_epi32(int(kNoHit)));
+  // make_walk_ray, then the entry voxel
+  for (int a = 0; a < 3; ++a) {
+    const __m256 walk_org = _mm256_mul_ps(_mm256_sub_ps(org[a], _mm256_set1_ps(info.box_lo[a])),
+                                          _mm256_set1_ps(info.inv_voxel_size[a]));
+    const __m256 t_per_voxel = _mm256_mul_ps(_mm256_set1_ps(info.voxel_size[a]), inv_dir[a]);
+    const __m256 t_at_plane0 =
+        _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(info.box_lo[a]), org[a]), inv_dir[a]);
+    const __m256 finite_limit = _mm256_set1_ps(-INFINITY);
+    const auto finite = [&](__m256 v) {
+      return _mm256_and_ps(_mm256_cmp_ps(v, finite_limit, _CMP_GT_OQ),
+                           _mm256_cmp_ps(v, infinity, _CMP_LT_OQ));
+    };
+    const __m256 flat_axis = info.inv_voxel_size[a] == 0.f ? all_ones : zero;
+    const __m256i parallel = as_int(_mm256_or_ps(
+        _mm256_or_ps(_mm256_cmp_ps(dir[a], zero, _CMP_EQ_OQ), flat_axis),
+        _mm256_andnot_ps(_mm256_and_ps(finite(t_per_voxel), finite(t_at_plane0)), all_ones)));
+    const __m256 walk_dir = select(parallel, dir[a], zero);
+    keep(enters, s.org[a], walk_org);
+    keep(enters, s.dir[a], walk_dir);
+    keep(enters, s.t_per_voxel[a], select(parallel, t_per_voxel, zero));
+    keep(enters, s.t_at_plane0[a], select(parallel, t_at_plane0, infinity));
+    keep(enters, s.ascending[a], as_int(_mm256_cmp_ps(walk_dir, zero, _CMP_NLT_UQ)));
+    const __m256 position =
+        select(as_int(_mm256_cmp_ps(walk_dir, zero, _CMP_EQ_OQ)),
+               _mm256_add_ps(walk_org, _mm256_mul_ps(_mm256_mul_ps(t_enter, walk_dir),
+                                                     _mm256_set1_ps(info.inv_voxel_size[a]))),
+               walk_org);
+    keep(enters, s.voxel[a],
+         _mm256_cvttps_epi32(_mm256_min_ps(_mm256_max_ps(position, zero),
+                                           _mm256_set1_ps(float(info.virtual_dims[a] - 1)))));
+  }
+  return enters;
 }
 
 /// The cell index of each active lane's voxel (lookup_cell, lane-wise): one gather per level.
@@ -253,29 +356,39 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
   const CellT* cells = cell_array<CellT>(grid);
   const bool counted = !work.empty();
   Lanes s;
-  GridWalk walks[L];
   std::uint32_t ray_of[L];
+  alignas(32) std::int32_t ray_offset[L] = {};
   TraversalCounters counters[L];
   TestList list;
   std::size_t next = 0;
-  // Gives lane l the next ray that enters the grid (the others are answered at once); false when
-  // no ray is left.
-  const auto start = [&](int l) {
-    for (; next < rays.size(); ++next) {
-      if (begin_walk(grid.info, rays[next], walks[l])) {
+  // Gives the lanes of `idle` the next rays that enter the grid (the others are answered at
+  // once); returns the lanes that got one.
+  const auto start = [&](std::uint32_t idle) {
+    std::uint32_t started = 0;
+    while (idle != 0 && next < rays.size()) {
+      const std::size_t first = next;
+      std::uint32_t starting = 0;
+      for (std::uint32_t bits = idle; bits != 0 && next < rays.size(); bits &= bits - 1) {
+        const int l = __builtin_ctz(bits);
+        ray_offset[l] = std::int32_t(next - first);
         ray_of[l] = std::uint32_t(next++);
-        counters[l] = {};
-        put_lane(s, l, walks[l]);
-        return true;
+        starting |= 1u << l;
       }
-      hits[next] = Hit{};
-      if (counted) work[next] = {};
+      const std::uint32_t entered =
+          lane_bits(begin_walks(grid.info, rays.data() + first, ray_offset, s, lanes_of(starting)));
+      for (std::uint32_t bits = starting & ~entered; bits != 0; bits &= bits - 1) {
+        const int l = __builtin_ctz(bits);
+        hits[ray_of[l]] = Hit{};
+        if (counted) work[ray_of[l]] = {};
+      }
+      for (std::uint32_t bits = entered; bits != 0; bits &= bits - 1)
+        counters[__builtin_ctz(bits)] = {};
+      started |= entered;
+      idle &= ~entered;
     }
-    return false;
+    return started;
   };
-  std::uint32_t active = 0;
-  for (int l = 0; l < L && start(l); ++l)
-    active |= 1u << l;
+  std::uint32_t active = start((1u << L) - 1);
 
   while (active != 0) {
     const __m256i lanes = lanes_of(active);
@@ -307,13 +420,22 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
           if (misses >> p & 1) continue;
           const std::uint32_t id = list.prim[first + p];
           const TriangleVertices& tri = grid.triangles[id];
-          GridWalk& w = walks[l];
+          const WatertightRay<float> ray{{s.org_k[0][l], s.org_k[1][l], s.org_k[2][l]},
+                                         s.axis[0][l],
+                                         s.axis[1][l],
+                                         s.axis[2][l],
+                                         s.shear[0][l],
+                                         s.shear[1][l],
+                                         s.shear[2][l],
+                                         s.tmin[l],
+                                         s.tmax[l]};
           TriangleHit<float> hit;
-          if (!intersect_watertight(w.shear, tri.p0, tri.p1, tri.p2, float(INFINITY), hit))
-            continue;
-          if (hit.t > w.best.t || (hit.t == w.best.t && id > w.best.prim)) continue;
-          w.best = {id, hit.t, hit.u, hit.v};
+          if (!intersect_watertight(ray, tri.p0, tri.p1, tri.p2, float(INFINITY), hit)) continue;
+          const float best_t = s.best_t[l];
+          if (hit.t > best_t || (hit.t == best_t && id > std::uint32_t(s.best_prim[l]))) continue;
           s.best_t[l] = hit.t;
+          s.best_u[l] = hit.u;
+          s.best_v[l] = hit.v;
           s.best_prim[l] = std::int32_t(id);
           if constexpr (kQuery == Query::any) hit_lanes |= 1u << l;
         }
@@ -341,10 +463,11 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
     }
     for (std::uint32_t bits = ended; bits != 0; bits &= bits - 1) {
       const int l = __builtin_ctz(bits);
-      hits[ray_of[l]] = walk_result(walks[l]);
+      const auto prim = std::uint32_t(s.best_prim[l]);
+      hits[ray_of[l]] = prim == kNoHit ? Hit{} : Hit{prim, s.best_t[l], s.best_u[l], s.best_v[l]};
       if (counted) work[ray_of[l]] = {counters[l].cells, counters[l].triangles};
-      if (!start(l)) active &= ~(1u << l);
     }
+    active = (active & ~ended) | start(ended);
   }
 }
 
