@@ -11,6 +11,7 @@
 #include <immintrin.h>
 
 #include <cstdint>
+#include <cstring>
 
 namespace irgrid {
 
@@ -25,7 +26,8 @@ namespace {
 
 constexpr int L = kSimdWalkLanes;
 
-/// The walks' per-ray values, one array slot per lane (structure of arrays).
+/// The walks' per-ray values, one array slot per lane (structure of arrays). Every member is a
+/// row of L 4-byte values, so a lane moves as a column (copy_lane).
 struct alignas(32) Lanes {
   float org[3][L];               // WalkRay::org
   float dir[3][L];               // WalkRay::dir
@@ -36,13 +38,27 @@ struct alignas(32) Lanes {
   float t_leave[L];
   float best_t[L], best_u[L], best_v[L];  // GridWalk::best
   std::int32_t best_prim[L];
-  float org_k[3][L];                // WatertightRay::org_k
-  float shear[3][L];                // WatertightRay::sx, sy, sz
-  float tmin[L], tmax[L];           // WatertightRay::tmin, tmax
-  std::int32_t axis[3][L];          // WatertightRay::kx, ky, kz
-  std::int32_t lo[3][L], hi[3][L];  // the current cell's exit box
-  std::int32_t begin[L], end[L];    // and its references
-  std::uint32_t cell[L];
+  float org_k[3][L];        // WatertightRay::org_k
+  float shear[3][L];        // WatertightRay::sx, sy, sz
+  float tmin[L], tmax[L];   // WatertightRay::tmin, tmax
+  std::int32_t axis[3][L];  // WatertightRay::kx, ky, kz
+};
+constexpr std::size_t kLaneRows = sizeof(Lanes) / (4 * L);
+static_assert(sizeof(Lanes) == kLaneRows * 4 * L, "Lanes holds rows of L 4-byte values only");
+
+/// Copies the walk in slot `from_lane` of `from` into lane `lane` of `to`.
+void copy_lane(Lanes& to, int lane, const Lanes& from, int from_lane) {
+  auto* t = reinterpret_cast<unsigned char*>(&to);
+  const auto* f = reinterpret_cast<const unsigned char*>(&from);
+  for (std::size_t row = 0; row < kLaneRows; ++row)
+    std::memcpy(t + (row * L + lane) * 4, f + (row * L + from_lane) * 4, 4);
+}
+
+/// The cell each lane is in, per round.
+struct alignas(32) LaneCells {
+  std::int32_t lo[3][L], hi[3][L];  // exit box
+  std::int32_t begin[L], end[L];    // references
+  std::uint32_t index[L];
 };
 
 inline __m256 load(const float* p) {
@@ -200,7 +216,7 @@ __m256i begin_walks(const GridInfo& info, const Ray* rays, const std::int32_t* r
 }
 
 /// The cell index of each active lane's voxel (lookup_cell, lane-wise): one gather per level.
-void find_cells(const GridView& grid, Lanes& s, __m256i active) {
+void find_cells(const GridView& grid, const Lanes& s, LaneCells& c, __m256i active) {
   const GridInfo& info = grid.info;
   const __m128i top_shift = _mm_cvtsi32_si128(info.shift);
   const __m256i v[3] = {load(s.voxel[0]), load(s.voxel[1]), load(s.voxel[2])};
@@ -231,7 +247,7 @@ void find_cells(const GridView& grid, Lanes& s, __m256i active) {
                                         inner, 4);
     inner = _mm256_and_si256(inner, _mm256_cmpgt_epi32(_mm256_srli_epi32(entry, 30), zero));
   }
-  store(reinterpret_cast<std::int32_t*>(s.cell),
+  store(reinterpret_cast<std::int32_t*>(c.index),
         _mm256_and_si256(entry, _mm256_set1_epi32(int(kMaxEntryTarget))));
 }
 
@@ -242,11 +258,11 @@ struct LaneExit {
   __m256 t_exit;
 };
 
-LaneExit cell_exits(const Lanes& s) {
+LaneExit cell_exits(const Lanes& s, const LaneCells& c) {
   LaneExit e;
   e.t_exit = load(s.t_leave);
   for (int a = 0; a < 3; ++a) {
-    e.far[a] = _mm256_blendv_epi8(load(s.lo[a]), load(s.hi[a]), load(s.ascending[a]));
+    e.far[a] = _mm256_blendv_epi8(load(c.lo[a]), load(c.hi[a]), load(s.ascending[a]));
     e.t_axis[a] = _mm256_add_ps(_mm256_mul_ps(_mm256_cvtepi32_ps(e.far[a]), load(s.t_per_voxel[a])),
                                 load(s.t_at_plane0[a]));
     e.t_exit = _mm256_min_ps(e.t_axis[a], e.t_exit);
@@ -355,36 +371,44 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
                       std::span<RayWork> work) {
   const CellT* cells = cell_array<CellT>(grid);
   const bool counted = !work.empty();
-  Lanes s;
-  std::uint32_t ray_of[L];
-  alignas(32) std::int32_t ray_offset[L] = {};
+  Lanes s{};       // the walks in flight
+  Lanes staged{};  // walks begun ahead, eight rays at a time
+  LaneCells c;
+  std::uint32_t ray_of[L], staged_ray[L];
+  alignas(32) std::int32_t ray_offset[L];
+  for (int l = 0; l < L; ++l)
+    ray_offset[l] = l;
+  std::uint32_t staged_ready = 0;  // slots of `staged` whose ray enters the grid, not yet taken
   TraversalCounters counters[L];
   TestList list;
   std::size_t next = 0;
-  // Gives the lanes of `idle` the next rays that enter the grid (the others are answered at
-  // once); returns the lanes that got one.
+  // Gives the lanes of `idle` the next rays that enter the grid; rays that miss it are answered
+  // at once. Returns the lanes that got one.
   const auto start = [&](std::uint32_t idle) {
     std::uint32_t started = 0;
-    while (idle != 0 && next < rays.size()) {
-      const std::size_t first = next;
-      std::uint32_t starting = 0;
-      for (std::uint32_t bits = idle; bits != 0 && next < rays.size(); bits &= bits - 1) {
-        const int l = __builtin_ctz(bits);
-        ray_offset[l] = std::int32_t(next - first);
-        ray_of[l] = std::uint32_t(next++);
-        starting |= 1u << l;
+    while (idle != 0) {
+      if (staged_ready == 0) {
+        if (next == rays.size()) break;
+        const std::size_t count = rays.size() - next < L ? rays.size() - next : L;
+        const std::uint32_t starting = (1u << count) - 1;
+        staged_ready = lane_bits(
+            begin_walks(grid.info, rays.data() + next, ray_offset, staged, lanes_of(starting)));
+        for (std::uint32_t slot = 0; slot < count; ++slot) {
+          staged_ray[slot] = std::uint32_t(next + slot);
+          if (staged_ready >> slot & 1) continue;
+          hits[next + slot] = Hit{};
+          if (counted) work[next + slot] = {};
+        }
+        next += count;
+        continue;
       }
-      const std::uint32_t entered =
-          lane_bits(begin_walks(grid.info, rays.data() + first, ray_offset, s, lanes_of(starting)));
-      for (std::uint32_t bits = starting & ~entered; bits != 0; bits &= bits - 1) {
-        const int l = __builtin_ctz(bits);
-        hits[ray_of[l]] = Hit{};
-        if (counted) work[ray_of[l]] = {};
-      }
-      for (std::uint32_t bits = entered; bits != 0; bits &= bits - 1)
-        counters[__builtin_ctz(bits)] = {};
-      started |= entered;
-      idle &= ~entered;
+      const int l = __builtin_ctz(idle), slot = __builtin_ctz(staged_ready);
+      copy_lane(s, l, staged, slot);
+      ray_of[l] = staged_ray[slot];
+      counters[l] = {};
+      started |= 1u << l;
+      idle &= idle - 1;
+      staged_ready &= staged_ready - 1;
     }
     return started;
   };
@@ -392,18 +416,18 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
 
   while (active != 0) {
     const __m256i lanes = lanes_of(active);
-    find_cells(grid, s, lanes);
+    find_cells(grid, s, c, lanes);
     for (std::uint32_t bits = active; bits != 0; bits &= bits - 1) {
       const int l = __builtin_ctz(bits);
-      const Cell cell = load_cell(cells, s.cell[l]);
+      const Cell cell = load_cell(cells, c.index[l]);
       for (int a = 0; a < 3; ++a) {
-        s.lo[a][l] = cell.lo[a];
-        s.hi[a][l] = cell.hi[a];
+        c.lo[a][l] = cell.lo[a];
+        c.hi[a][l] = cell.hi[a];
       }
-      s.begin[l] = std::int32_t(cell.begin);
-      s.end[l] = std::int32_t(cell.end);
+      c.begin[l] = std::int32_t(cell.begin);
+      c.end[l] = std::int32_t(cell.end);
     }
-    const LaneExit exit = cell_exits(s);
+    const LaneExit exit = cell_exits(s, c);
 
     // The triangles: all lanes' tests are listed, and their triangles requested, before the
     // first test waits on one of them.
@@ -444,7 +468,7 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
     };
     for (std::uint32_t bits = active; bits != 0; bits &= bits - 1) {
       const int l = __builtin_ctz(bits);
-      for (std::int32_t r = s.begin[l]; r < s.end[l]; ++r) {
+      for (std::int32_t r = c.begin[l]; r < c.end[l]; ++r) {
         if (kQuery == Query::any && (hit_lanes >> l & 1)) break;
         const std::uint32_t id = grid.refs[r];
         __builtin_prefetch(&grid.triangles[id]);
