@@ -280,26 +280,33 @@ struct alignas(32) TestList {
   int size = 0;
 };
 
-/// Tests first + p (p < count <= kSimdWalkLanes, first a multiple of it) of `tests` whose
-/// triangle certainly misses its lane's ray, as bit p: the sheared edge functions u, v, w of
-/// intersect_watertight are all numbers and of mixed nonzero signs. The other tests take the
-/// scalar test, which computes the same values.
-std::uint32_t sign_test_misses(const GridView& grid, const Lanes& s, const TestList& tests,
-                               int first, int count) {
+/// What the lane-wise triangle test found for a batch of tests, bit p for test first + p.
+struct alignas(32) BatchHits {
+  float t[L], u[L], v[L];  // where `hits` has the bit: intersect_watertight's hit
+  std::uint32_t hits;      // intersect_watertight returns true
+  std::uint32_t scalar;    // left to the scalar test (an edge function is zero, or not a number)
+};
+
+/// intersect_watertight, lane-wise, for tests first + p (p < count <= kSimdWalkLanes, first a
+/// multiple of it) of `tests`, against the rays of their lanes, with the same operations in the
+/// same order. Tests whose edge functions are not all nonzero numbers are left to the scalar
+/// test (its double-precision redo of zero edge functions).
+void test_triangles(const GridView& grid, const Lanes& s, const TestList& tests, int first,
+                    int count, BatchHits& out) {
   const __m256i slots = lanes_of((1u << count) - 1);
   const float* coords = &grid.triangles[0].p0.x;
   const __m256i lane = load(tests.lane + first);
   const __m256i prim = load(reinterpret_cast<const std::int32_t*>(tests.prim + first));
   const __m256i base = _mm256_add_epi32(_mm256_slli_epi32(prim, 3), prim);  // 9 floats each
-  // Each slot takes its lane's ray constants.
+  // Each test takes its lane's ray constants.
   const auto ray_int = [&](const std::int32_t* v) {
     return _mm256_permutevar8x32_epi32(load(v), lane);
   };
   const auto ray_float = [&](const float* v) { return _mm256_permutevar8x32_ps(load(v), lane); };
   const __m256i kx = ray_int(s.axis[0]), ky = ray_int(s.axis[1]), kz = ray_int(s.axis[2]);
   const __m256 ox = ray_float(s.org_k[0]), oy = ray_float(s.org_k[1]), oz = ray_float(s.org_k[2]);
-  const __m256 sx = ray_float(s.shear[0]), sy = ray_float(s.shear[1]);
-  __m256 x[3], y[3];
+  const __m256 sx = ray_float(s.shear[0]), sy = ray_float(s.shear[1]), sz = ray_float(s.shear[2]);
+  __m256 x[3], y[3], z[3];
   for (int j = 0; j < 3; ++j) {  // shear_vertex for p0, p1, p2
     const __m256i vertex = _mm256_add_epi32(base, _mm256_set1_epi32(3 * j));
     const __m256 px = gather(coords, _mm256_add_epi32(vertex, kx), slots);
@@ -307,6 +314,7 @@ std::uint32_t sign_test_misses(const GridView& grid, const Lanes& s, const TestL
     const __m256 pz = _mm256_sub_ps(gather(coords, _mm256_add_epi32(vertex, kz), slots), oz);
     x[j] = _mm256_sub_ps(_mm256_sub_ps(px, ox), _mm256_mul_ps(sx, pz));
     y[j] = _mm256_sub_ps(_mm256_sub_ps(py, oy), _mm256_mul_ps(sy, pz));
+    z[j] = _mm256_mul_ps(sz, pz);
   }
   // a = p0, b = p1, c = p2: u = c_x b_y - c_y b_x, v = a_x c_y - a_y c_x, w = b_x a_y - b_y a_x.
   const __m256 u = _mm256_sub_ps(_mm256_mul_ps(x[2], y[1]), _mm256_mul_ps(y[2], x[1]));
@@ -321,8 +329,29 @@ std::uint32_t sign_test_misses(const GridView& grid, const Lanes& s, const TestL
       _mm256_cmp_ps(w, zero, _CMP_GT_OQ));
   const __m256 numbers =
       _mm256_and_ps(_mm256_cmp_ps(u, v, _CMP_ORD_Q), _mm256_cmp_ps(w, w, _CMP_ORD_Q));
-  return lane_bits(
-      _mm256_and_si256(slots, as_int(_mm256_and_ps(_mm256_and_ps(negative, positive), numbers))));
+  const __m256 some_zero = _mm256_or_ps(
+      _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_EQ_OQ), _mm256_cmp_ps(v, zero, _CMP_EQ_OQ)),
+      _mm256_cmp_ps(w, zero, _CMP_EQ_OQ));
+  // Mixed nonzero signs: a miss whatever the double redo would make of a zero.
+  const __m256 missed = _mm256_and_ps(_mm256_and_ps(negative, positive), numbers);
+  const __m256 scalar = _mm256_andnot_ps(
+      missed, _mm256_or_ps(some_zero, _mm256_andnot_ps(numbers, as_float(_mm256_set1_epi32(-1)))));
+  const __m256 det = _mm256_add_ps(_mm256_add_ps(u, v), w);
+  const __m256 t_scaled = _mm256_add_ps(
+      _mm256_add_ps(_mm256_mul_ps(u, z[0]), _mm256_mul_ps(v, z[1])), _mm256_mul_ps(w, z[2]));
+  const __m256 inv_det = _mm256_div_ps(_mm256_set1_ps(1.f), det);
+  const __m256 t = _mm256_mul_ps(t_scaled, inv_det);
+  const __m256 in_range =
+      _mm256_and_ps(_mm256_and_ps(_mm256_cmp_ps(t, ray_float(s.tmin), _CMP_GE_OQ),
+                                  _mm256_cmp_ps(t, ray_float(s.tmax), _CMP_LE_OQ)),
+                    _mm256_and_ps(_mm256_cmp_ps(t, _mm256_set1_ps(INFINITY), _CMP_LT_OQ),
+                                  _mm256_cmp_ps(det, zero, _CMP_NEQ_UQ)));
+  const __m256 hit = _mm256_andnot_ps(_mm256_or_ps(missed, scalar), in_range);
+  _mm256_store_ps(out.t, t);
+  _mm256_store_ps(out.u, _mm256_mul_ps(v, inv_det));
+  _mm256_store_ps(out.v, _mm256_mul_ps(w, inv_det));
+  out.hits = lane_bits(_mm256_and_si256(slots, as_int(hit)));
+  out.scalar = lane_bits(_mm256_and_si256(slots, as_int(scalar)));
 }
 
 /// step_past_cell, lane-wise, for lanes whose walk goes on; returns the lanes whose walk ends
@@ -433,28 +462,32 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
     // first test waits on one of them.
     std::int32_t tested[L] = {};
     std::uint32_t hit_lanes = 0;  // any hit: lanes that found one, done with this cell
+    BatchHits batch;
     const auto run_tests = [&] {
       for (int first = 0; first < list.size; first += L) {
         const int count = list.size - first < L ? list.size - first : L;
-        const std::uint32_t misses = sign_test_misses(grid, s, list, first, count);
+        test_triangles(grid, s, list, first, count, batch);
         for (int p = 0; p < count; ++p) {
           const int l = list.lane[first + p];
           if (kQuery == Query::any && (hit_lanes >> l & 1)) continue;
           ++tested[l];
-          if (misses >> p & 1) continue;
           const std::uint32_t id = list.prim[first + p];
-          const TriangleVertices& tri = grid.triangles[id];
-          const WatertightRay<float> ray{{s.org_k[0][l], s.org_k[1][l], s.org_k[2][l]},
-                                         s.axis[0][l],
-                                         s.axis[1][l],
-                                         s.axis[2][l],
-                                         s.shear[0][l],
-                                         s.shear[1][l],
-                                         s.shear[2][l],
-                                         s.tmin[l],
-                                         s.tmax[l]};
-          TriangleHit<float> hit;
-          if (!intersect_watertight(ray, tri.p0, tri.p1, tri.p2, float(INFINITY), hit)) continue;
+          TriangleHit<float> hit{batch.t[p], batch.u[p], batch.v[p]};
+          if (batch.scalar >> p & 1) {
+            const TriangleVertices& tri = grid.triangles[id];
+            const WatertightRay<float> ray{{s.org_k[0][l], s.org_k[1][l], s.org_k[2][l]},
+                                           s.axis[0][l],
+                                           s.axis[1][l],
+                                           s.axis[2][l],
+                                           s.shear[0][l],
+                                           s.shear[1][l],
+                                           s.shear[2][l],
+                                           s.tmin[l],
+                                           s.tmax[l]};
+            if (!intersect_watertight(ray, tri.p0, tri.p1, tri.p2, float(INFINITY), hit)) continue;
+          } else if (!(batch.hits >> p & 1)) {
+            continue;
+          }
           const float best_t = s.best_t[l];
           if (hit.t > best_t || (hit.t == best_t && id > std::uint32_t(s.best_prim[l]))) continue;
           s.best_t[l] = hit.t;
