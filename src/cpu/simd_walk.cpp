@@ -50,6 +50,7 @@ static_assert(sizeof(Lanes) == kLaneRows * 4 * L, "Lanes holds rows of L 4-byte 
 void copy_lane(Lanes& to, int lane, const Lanes& from, int from_lane) {
   auto* t = reinterpret_cast<unsigned char*>(&to);
   const auto* f = reinterpret_cast<const unsigned char*>(&from);
+#pragma GCC unroll 64
   for (std::size_t row = 0; row < kLaneRows; ++row)
     std::memcpy(t + (row * L + lane) * 4, f + (row * L + from_lane) * 4, 4);
 }
@@ -408,7 +409,7 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
   for (int l = 0; l < L; ++l)
     ray_offset[l] = l;
   std::uint32_t staged_ready = 0;  // slots of `staged` whose ray enters the grid, not yet taken
-  TraversalCounters counters[L];
+  alignas(32) std::int32_t cells_visited[L] = {}, triangles_tested[L] = {};  // TraversalCounters
   TestList list;
   std::size_t next = 0;
   // Gives the lanes of `idle` the next rays that enter the grid; rays that miss it are answered
@@ -434,7 +435,7 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
       const int l = __builtin_ctz(idle), slot = __builtin_ctz(staged_ready);
       copy_lane(s, l, staged, slot);
       ray_of[l] = staged_ray[slot];
-      counters[l] = {};
+      cells_visited[l] = triangles_tested[l] = 0;
       started |= 1u << l;
       idle &= idle - 1;
       staged_ready &= staged_ready - 1;
@@ -460,7 +461,6 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
 
     // The triangles: all lanes' tests are listed, and their triangles requested, before the
     // first test waits on one of them.
-    std::int32_t tested[L] = {};
     std::uint32_t hit_lanes = 0;  // any hit: lanes that found one, done with this cell
     BatchHits batch;
     const auto run_tests = [&] {
@@ -470,7 +470,7 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
         for (int p = 0; p < count; ++p) {
           const int l = list.lane[first + p];
           if (kQuery == Query::any && (hit_lanes >> l & 1)) continue;
-          ++tested[l];
+          ++triangles_tested[l];
           const std::uint32_t id = list.prim[first + p];
           TriangleHit<float> hit{batch.t[p], batch.u[p], batch.v[p]};
           if (batch.scalar >> p & 1) {
@@ -513,16 +513,13 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
     if (list.size > 0) run_tests();
 
     const std::uint32_t ended = (lane_bits(step_lanes(grid.info, s, exit)) | hit_lanes) & active;
-    for (std::uint32_t bits = active; bits != 0; bits &= bits - 1) {
-      const int l = __builtin_ctz(bits);
-      ++counters[l].cells;
-      counters[l].triangles += std::uint32_t(tested[l]);
-    }
+    store(cells_visited, _mm256_sub_epi32(load(cells_visited), lanes));  // lanes: -1 each
     for (std::uint32_t bits = ended; bits != 0; bits &= bits - 1) {
       const int l = __builtin_ctz(bits);
       const auto prim = std::uint32_t(s.best_prim[l]);
       hits[ray_of[l]] = prim == kNoHit ? Hit{} : Hit{prim, s.best_t[l], s.best_u[l], s.best_v[l]};
-      if (counted) work[ray_of[l]] = {counters[l].cells, counters[l].triangles};
+      if (counted)
+        work[ray_of[l]] = {std::uint32_t(cells_visited[l]), std::uint32_t(triangles_tested[l])};
     }
     active = (active & ~ended) | start(ended);
   }
