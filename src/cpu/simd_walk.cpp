@@ -278,6 +278,7 @@ struct alignas(32) TestList {
   static constexpr int kCapacity = 16 * L;
   std::int32_t lane[kCapacity] = {};  // slots past `size` stay valid for the permutes
   std::uint32_t prim[kCapacity] = {};
+  std::int32_t ordinal[kCapacity];  // the test's place among its cell's references
   int size = 0;
 };
 
@@ -467,10 +468,11 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
       for (int first = 0; first < list.size; first += L) {
         const int count = list.size - first < L ? list.size - first : L;
         test_triangles(grid, s, list, first, count, batch);
-        for (int p = 0; p < count; ++p) {
+        // Only the tests that hit, or need the scalar test, are looked at one by one, in order.
+        for (std::uint32_t bits = batch.hits | batch.scalar; bits != 0; bits &= bits - 1) {
+          const int p = __builtin_ctz(bits);
           const int l = list.lane[first + p];
           if (kQuery == Query::any && (hit_lanes >> l & 1)) continue;
-          ++triangles_tested[l];
           const std::uint32_t id = list.prim[first + p];
           TriangleHit<float> hit{batch.t[p], batch.u[p], batch.v[p]};
           if (batch.scalar >> p & 1) {
@@ -485,8 +487,6 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
                                            s.tmin[l],
                                            s.tmax[l]};
             if (!intersect_watertight(ray, tri.p0, tri.p1, tri.p2, float(INFINITY), hit)) continue;
-          } else if (!(batch.hits >> p & 1)) {
-            continue;
           }
           const float best_t = s.best_t[l];
           if (hit.t > best_t || (hit.t == best_t && id > std::uint32_t(s.best_prim[l]))) continue;
@@ -494,7 +494,10 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
           s.best_u[l] = hit.u;
           s.best_v[l] = hit.v;
           s.best_prim[l] = std::int32_t(id);
-          if constexpr (kQuery == Query::any) hit_lanes |= 1u << l;
+          if constexpr (kQuery == Query::any) {
+            hit_lanes |= 1u << l;
+            triangles_tested[l] += list.ordinal[first + p] + 1;  // the tests up to this hit
+          }
         }
       }
       list.size = 0;
@@ -507,10 +510,17 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
         __builtin_prefetch(&grid.triangles[id]);
         list.lane[list.size] = l;
         list.prim[list.size] = id;
+        list.ordinal[list.size] = r - c.begin[l];
         if (++list.size == TestList::kCapacity) run_tests();
       }
     }
     if (list.size > 0) run_tests();
+    // Every listed test counts, except those past an any-hit query's hit (counted above).
+    const __m256i cell_refs = _mm256_sub_epi32(load(c.end), load(c.begin));
+    const __m256i whole_cells =
+        kQuery == Query::any ? _mm256_andnot_si256(lanes_of(hit_lanes), lanes) : lanes;
+    store(triangles_tested,
+          _mm256_add_epi32(load(triangles_tested), _mm256_and_si256(cell_refs, whole_cells)));
 
     const std::uint32_t ended = (lane_bits(step_lanes(grid.info, s, exit)) | hit_lanes) & active;
     store(cells_visited, _mm256_sub_epi32(load(cells_visited), lanes));  // lanes: -1 each
