@@ -114,9 +114,9 @@ inline void keep(__m256i mask, std::int32_t* slot, __m256i value) {
   store(slot, select(mask, load(slot), value));
 }
 
-/// begin_walk, lane-wise, for the lanes of `starting`, ray rays[l] in lane l (read with gathers
-/// relative to `rays`); writes their walks into s and returns the lanes whose ray enters the
-/// grid (begin_walk true).
+/// begin_walk, lane-wise, for the lanes of `starting`: lane l begins rays[ray_offsets[l]] (read
+/// with gathers). Writes the walks of the rays that enter the grid into their lanes of s, and
+/// returns those lanes (where begin_walk returns true).
 __m256i begin_walks(const GridInfo& info, const Ray* rays, const std::int32_t* ray_offsets,
                     Lanes& s, __m256i starting) {
   const float* base = &rays[0].org[0];
@@ -404,7 +404,7 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
   const bool counted = !work.empty();
   Lanes s{};       // the walks in flight
   Lanes staged{};  // walks begun ahead, eight rays at a time
-  LaneCells c;
+  LaneCells c{};
   std::uint32_t ray_of[L], staged_ray[L];
   alignas(32) std::int32_t ray_offset[L];
   for (int l = 0; l < L; ++l)
