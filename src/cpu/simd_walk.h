@@ -4,11 +4,12 @@
 // same for every ray (the voxel-map descent, the exit distances, the step) and on triangle tests
 // that a cell's few triangles cannot fill a SIMD register with. Running one ray per lane instead
 // (as ISPC's "programs" or Embree's ray streams do) gives every step and every test eight rays
-// at once: the map and the triangles are read with gathers, the exit and step arithmetic is
-// lane-wise, and the triangle test's sign check (Woop et al. 2013) rejects most triangles in the
-// lanes. A triangle that passes it is finished by the scalar test, and every lane repeats the
-// scalar walk's operations in the same order, so the hits and work counters are those of
-// traverse_grid, bit for bit.
+// at once: the map and the triangles are read with gathers, the exit and step arithmetic and
+// the watertight triangle test (Woop et al. 2013) are lane-wise, and the tests of all lanes'
+// cells are packed into full batches. Only a test with an edge function of exactly zero (redone
+// in double) or a NaN falls back to the scalar test. Every lane repeats the scalar walk's
+// operations in the same order, so the hits and work counters are those of traverse_grid, bit
+// for bit.
 #pragma once
 
 #include <span>
