@@ -16,7 +16,8 @@
 namespace irgrid {
 
 bool simd_walk_supported(const GridInfo& info) {
-  return __builtin_cpu_supports("avx2") && std::uint64_t(info.num_triangles) * 9 < (1ull << 31);
+  static const bool has_avx2 = __builtin_cpu_supports("avx2");
+  return has_avx2 && std::uint64_t(info.num_triangles) * 9 < (1ull << 31);
 }
 
 #pragma GCC push_options
@@ -106,21 +107,24 @@ inline __m256 pick(const __m256 v[3], __m256i k) {
                 select(_mm256_cmpeq_epi32(k, _mm256_set1_epi32(1)), v[0], v[1]), v[2]);
 }
 
-/// Stores `value` into the lanes of `slot` selected by `mask`.
-inline void keep(__m256i mask, float* slot, __m256 value) {
-  _mm256_store_ps(slot, select(mask, load(slot), value));
+/// walk_position, lane-wise: the walk position at t on axis a, in voxels.
+inline __m256 walk_position(const GridInfo& info, int a, __m256 walk_org, __m256 walk_dir,
+                            __m256 t) {
+  return _mm256_add_ps(
+      walk_org, _mm256_mul_ps(_mm256_mul_ps(t, walk_dir), _mm256_set1_ps(info.inv_voxel_size[a])));
 }
-inline void keep(__m256i mask, std::int32_t* slot, __m256i value) {
-  store(slot, select(mask, load(slot), value));
+/// voxel_at, lane-wise: the voxel holding position p on axis a, clamped to the grid.
+inline __m256i voxel_at(const GridInfo& info, int a, __m256 p) {
+  return _mm256_cvttps_epi32(_mm256_min_ps(_mm256_max_ps(p, _mm256_setzero_ps()),
+                                           _mm256_set1_ps(float(info.virtual_dims[a] - 1))));
 }
 
-/// begin_walk, lane-wise, for the lanes of `starting`: lane l begins rays[ray_offsets[l]] (read
-/// with gathers). Writes the walks of the rays that enter the grid into their lanes of s, and
-/// returns those lanes (where begin_walk returns true).
-__m256i begin_walks(const GridInfo& info, const Ray* rays, const std::int32_t* ray_offsets,
-                    Lanes& s, __m256i starting) {
+/// begin_walk, lane-wise, for the lanes of `starting`: lane l begins rays[l] (read with
+/// gathers). Writes the walks into s and returns the lanes whose ray enters the grid (where
+/// begin_walk returns true); the other lanes of s hold no walk.
+__m256i begin_walks(const GridInfo& info, const Ray* rays, Lanes& s, __m256i starting) {
   const float* base = &rays[0].org[0];
-  const __m256i field = _mm256_slli_epi32(load(ray_offsets), 3);  // 8 floats per ray
+  const __m256i field = _mm256_setr_epi32(0, 8, 16, 24, 32, 40, 48, 56);  // 8 floats per ray
   const auto read = [&](int f) {
     return gather(base, _mm256_add_epi32(field, _mm256_set1_epi32(f)), starting);
   };
@@ -139,15 +143,13 @@ __m256i begin_walks(const GridInfo& info, const Ray* rays, const std::int32_t* r
     const __m256i flat = as_int(_mm256_cmp_ps(dir[a], zero, _CMP_EQ_OQ));
     const __m256i outside = as_int(
         _mm256_or_ps(_mm256_cmp_ps(org[a], lo, _CMP_LT_OQ), _mm256_cmp_ps(org[a], hi, _CMP_GT_OQ)));
-    __m256 t0 = _mm256_mul_ps(_mm256_sub_ps(lo, org[a]), inv_dir[a]);
-    __m256 t1 = _mm256_mul_ps(_mm256_sub_ps(hi, org[a]), inv_dir[a]);
+    const __m256 t0 = _mm256_mul_ps(_mm256_sub_ps(lo, org[a]), inv_dir[a]);
+    const __m256 t1 = _mm256_mul_ps(_mm256_sub_ps(hi, org[a]), inv_dir[a]);
     const __m256i swap = as_int(_mm256_cmp_ps(t0, t1, _CMP_GT_OQ));
     const __m256 near = select(swap, t0, t1), far = select(swap, t1, t0);
-    t0 = near;
-    t1 = far;
     const __m256i missed = _mm256_and_si256(flat, outside);
-    t_enter = select(flat, _mm256_max_ps(t0, t_enter), select(missed, t_enter, one));
-    t_leave = select(flat, _mm256_min_ps(t1, t_leave), select(missed, t_leave, zero));
+    t_enter = select(flat, _mm256_max_ps(near, t_enter), select(missed, t_enter, one));
+    t_leave = select(flat, _mm256_min_ps(far, t_leave), select(missed, t_leave, zero));
   }
   const __m256i enters =
       _mm256_and_si256(starting, as_int(_mm256_cmp_ps(t_enter, t_leave, _CMP_LE_OQ)));
@@ -171,17 +173,17 @@ __m256i begin_walks(const GridInfo& info, const Ray* rays, const std::int32_t* r
                            _mm256_div_ps(one, dir_z)};
   const __m256i axis[3] = {kx, ky, kz};
   for (int k = 0; k < 3; ++k) {
-    keep(enters, s.org_k[k], pick(org, axis[k]));
-    keep(enters, s.shear[k], shear[k]);
-    keep(enters, s.axis[k], axis[k]);
+    _mm256_store_ps(s.org_k[k], pick(org, axis[k]));
+    _mm256_store_ps(s.shear[k], shear[k]);
+    store(s.axis[k], axis[k]);
   }
-  keep(enters, s.tmin, tmin);
-  keep(enters, s.tmax, tmax);
-  keep(enters, s.t_leave, t_leave);
-  keep(enters, s.best_t, tmax);
-  keep(enters, s.best_u, zero);
-  keep(enters, s.best_v, zero);
-  keep(enters, s.best_prim, _mm256_set1_epi32(int(kNoHit)));
+  _mm256_store_ps(s.tmin, tmin);
+  _mm256_store_ps(s.tmax, tmax);
+  _mm256_store_ps(s.t_leave, t_leave);
+  _mm256_store_ps(s.best_t, tmax);
+  _mm256_store_ps(s.best_u, zero);
+  _mm256_store_ps(s.best_v, zero);
+  store(s.best_prim, _mm256_set1_epi32(int(kNoHit)));
   // make_walk_ray, then the entry voxel
   for (int a = 0; a < 3; ++a) {
     const __m256 walk_org = _mm256_mul_ps(_mm256_sub_ps(org[a], _mm256_set1_ps(info.box_lo[a])),
@@ -199,19 +201,14 @@ __m256i begin_walks(const GridInfo& info, const Ray* rays, const std::int32_t* r
         _mm256_or_ps(_mm256_cmp_ps(dir[a], zero, _CMP_EQ_OQ), flat_axis),
         _mm256_andnot_ps(_mm256_and_ps(finite(t_per_voxel), finite(t_at_plane0)), all_ones)));
     const __m256 walk_dir = select(parallel, dir[a], zero);
-    keep(enters, s.org[a], walk_org);
-    keep(enters, s.dir[a], walk_dir);
-    keep(enters, s.t_per_voxel[a], select(parallel, t_per_voxel, zero));
-    keep(enters, s.t_at_plane0[a], select(parallel, t_at_plane0, infinity));
-    keep(enters, s.ascending[a], as_int(_mm256_cmp_ps(walk_dir, zero, _CMP_NLT_UQ)));
-    const __m256 position =
-        select(as_int(_mm256_cmp_ps(walk_dir, zero, _CMP_EQ_OQ)),
-               _mm256_add_ps(walk_org, _mm256_mul_ps(_mm256_mul_ps(t_enter, walk_dir),
-                                                     _mm256_set1_ps(info.inv_voxel_size[a]))),
-               walk_org);
-    keep(enters, s.voxel[a],
-         _mm256_cvttps_epi32(_mm256_min_ps(_mm256_max_ps(position, zero),
-                                           _mm256_set1_ps(float(info.virtual_dims[a] - 1)))));
+    _mm256_store_ps(s.org[a], walk_org);
+    _mm256_store_ps(s.dir[a], walk_dir);
+    _mm256_store_ps(s.t_per_voxel[a], select(parallel, t_per_voxel, zero));
+    _mm256_store_ps(s.t_at_plane0[a], select(parallel, t_at_plane0, infinity));
+    store(s.ascending[a], as_int(_mm256_cmp_ps(walk_dir, zero, _CMP_NLT_UQ)));
+    const __m256 position = select(as_int(_mm256_cmp_ps(walk_dir, zero, _CMP_EQ_OQ)),
+                                   walk_position(info, a, walk_org, walk_dir, t_enter), walk_org);
+    store(s.voxel[a], voxel_at(info, a, position));
   }
   return enters;
 }
@@ -374,12 +371,8 @@ __m256i step_lanes(const GridInfo& info, Lanes& s, const LaneExit& e) {
     // The exit axis: past the far plane; outside the grid when not in [0, dims).
     const __m256i jumped = _mm256_blendv_epi8(far_below, far, up);
     // The other axes: voxel_at(walk_position(t_exit)), kept within the cell and never back.
-    const __m256 p =
-        _mm256_add_ps(load(s.org[a]), _mm256_mul_ps(_mm256_mul_ps(e.t_exit, load(s.dir[a])),
-                                                    _mm256_set1_ps(info.inv_voxel_size[a])));
-    const __m256 clamped = _mm256_min_ps(_mm256_max_ps(p, _mm256_setzero_ps()),
-                                         _mm256_set1_ps(float(info.virtual_dims[a] - 1)));
-    const __m256i v = _mm256_cvttps_epi32(clamped);
+    const __m256i v =
+        voxel_at(info, a, walk_position(info, a, load(s.org[a]), load(s.dir[a]), e.t_exit));
     const __m256i at = load(s.voxel[a]);
     const __m256i up_v =
         _mm256_blendv_epi8(_mm256_blendv_epi8(v, far_below, _mm256_cmpgt_epi32(v, far_below)), at,
@@ -406,9 +399,6 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
   Lanes staged{};  // walks begun ahead, eight rays at a time
   LaneCells c{};
   std::uint32_t ray_of[L], staged_ray[L];
-  alignas(32) std::int32_t ray_offset[L];
-  for (int l = 0; l < L; ++l)
-    ray_offset[l] = l;
   std::uint32_t staged_ready = 0;  // slots of `staged` whose ray enters the grid, not yet taken
   alignas(32) std::int32_t cells_visited[L] = {}, triangles_tested[L] = {};  // TraversalCounters
   TestList list;
@@ -422,8 +412,8 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
         if (next == rays.size()) break;
         const std::size_t count = rays.size() - next < L ? rays.size() - next : L;
         const std::uint32_t starting = (1u << count) - 1;
-        staged_ready = lane_bits(
-            begin_walks(grid.info, rays.data() + next, ray_offset, staged, lanes_of(starting)));
+        staged_ready =
+            lane_bits(begin_walks(grid.info, rays.data() + next, staged, lanes_of(starting)));
         for (std::uint32_t slot = 0; slot < count; ++slot) {
           staged_ray[slot] = std::uint32_t(next + slot);
           if (staged_ready >> slot & 1) continue;
