@@ -10,6 +10,7 @@
 
 #include <immintrin.h>
 
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
 
@@ -17,7 +18,8 @@ namespace irgrid {
 
 bool simd_walk_supported(const GridInfo& info) {
   static const bool has_avx2 = __builtin_cpu_supports("avx2");
-  return has_avx2 && std::uint64_t(info.num_triangles) * 9 < (1ull << 31);
+  return has_avx2 && std::uint64_t(info.num_triangles) * 9 < (1ull << 31) &&
+         std::uint64_t(info.num_cells + 1) * 4 < (1ull << 31);
 }
 
 #pragma GCC push_options
@@ -60,7 +62,6 @@ void copy_lane(Lanes& to, int lane, const Lanes& from, int from_lane) {
 struct alignas(32) LaneCells {
   std::int32_t lo[3][L], hi[3][L];  // exit box
   std::int32_t begin[L], end[L];    // references
-  std::uint32_t index[L];
 };
 
 inline __m256 load(const float* p) {
@@ -213,8 +214,50 @@ __m256i begin_walks(const GridInfo& info, const Ray* rays, Lanes& s, __m256i sta
   return enters;
 }
 
-/// The cell index of each active lane's voxel (lookup_cell, lane-wise): one gather per level.
-void find_cells(const GridView& grid, const Lanes& s, LaneCells& c, __m256i active) {
+/// Field `offset` (in bytes) of the structs of `stride` bytes at `base`, for the cells `index`
+/// of the lanes of `mask` (0 elsewhere).
+template <int kOffset, int kStride>
+inline __m256i gather_field(const void* base, __m256i index, __m256i mask) {
+  static_assert(kStride % 8 == 0, "gathers scale indices by at most 8");
+  const auto* field = reinterpret_cast<const int*>(static_cast<const char*>(base) + kOffset);
+  const __m256i scaled = _mm256_mullo_epi32(index, _mm256_set1_epi32(kStride / 8));
+  return _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), field, scaled, mask, 8);
+}
+
+/// load_cell, lane-wise: the cells `index` of the lanes of `mask` into c.
+void load_cells(const Cell* cells, __m256i index, __m256i mask, LaneCells& c) {
+  static_assert(offsetof(Cell, begin) == 12 && offsetof(Cell, hi) == 16 &&
+                offsetof(Cell, end) == 28);
+  store(c.lo[0], gather_field<0, 32>(cells, index, mask));
+  store(c.lo[1], gather_field<4, 32>(cells, index, mask));
+  store(c.lo[2], gather_field<8, 32>(cells, index, mask));
+  store(c.begin, gather_field<12, 32>(cells, index, mask));
+  store(c.hi[0], gather_field<16, 32>(cells, index, mask));
+  store(c.hi[1], gather_field<20, 32>(cells, index, mask));
+  store(c.hi[2], gather_field<24, 32>(cells, index, mask));
+  store(c.end, gather_field<28, 32>(cells, index, mask));
+}
+void load_cells(const CompactCell* cells, __m256i index, __m256i mask, LaneCells& c) {
+  static_assert(offsetof(CompactCell, hi) == 6 && offsetof(CompactCell, begin) == 12);
+  const __m256i low16 = _mm256_set1_epi32(0xffff);
+  const __m256i lo01 = gather_field<0, 16>(cells, index, mask);  // lo[0], lo[1]
+  const __m256i lo2hi0 = gather_field<4, 16>(cells, index, mask);
+  const __m256i hi12 = gather_field<8, 16>(cells, index, mask);
+  store(c.lo[0], _mm256_and_si256(lo01, low16));
+  store(c.lo[1], _mm256_srli_epi32(lo01, 16));
+  store(c.lo[2], _mm256_and_si256(lo2hi0, low16));
+  store(c.hi[0], _mm256_srli_epi32(lo2hi0, 16));
+  store(c.hi[1], _mm256_and_si256(hi12, low16));
+  store(c.hi[2], _mm256_srli_epi32(hi12, 16));
+  store(c.begin, gather_field<12, 16>(cells, index, mask));
+  store(c.end, gather_field<16 + 12, 16>(cells, index, mask));  // the next cell's begin
+}
+
+/// The cell of each active lane's voxel (lookup_cell, lane-wise): one gather per map level,
+/// then the cell's fields.
+template <typename CellT>
+void find_cells(const GridView& grid, const CellT* cells, const Lanes& s, LaneCells& c,
+                __m256i active) {
   const GridInfo& info = grid.info;
   const __m128i top_shift = _mm_cvtsi32_si128(info.shift);
   const __m256i v[3] = {load(s.voxel[0]), load(s.voxel[1]), load(s.voxel[2])};
@@ -245,8 +288,7 @@ void find_cells(const GridView& grid, const Lanes& s, LaneCells& c, __m256i acti
                                         inner, 4);
     inner = _mm256_and_si256(inner, _mm256_cmpgt_epi32(_mm256_srli_epi32(entry, 30), zero));
   }
-  store(reinterpret_cast<std::int32_t*>(c.index),
-        _mm256_and_si256(entry, _mm256_set1_epi32(int(kMaxEntryTarget))));
+  load_cells(cells, _mm256_and_si256(entry, _mm256_set1_epi32(int(kMaxEntryTarget))), active, c);
 }
 
 /// cell_exit, lane-wise: the far plane and its t per axis, and the nearest t capped at t_leave.
@@ -273,10 +315,28 @@ LaneExit cell_exits(const Lanes& s, const LaneCells& c) {
 /// batches of kSimdWalkLanes.
 struct alignas(32) TestList {
   static constexpr int kCapacity = 16 * L;
-  std::int32_t lane[kCapacity] = {};  // slots past `size` stay valid for the permutes
-  std::uint32_t prim[kCapacity] = {};
-  std::int32_t ordinal[kCapacity];  // the test's place among its cell's references
+  // Appends write whole rows of L, so each array has L slots of slack; slots past `size` stay
+  // valid lanes for the permutes.
+  std::int32_t lane[kCapacity + L] = {};
+  std::uint32_t prim[kCapacity + L] = {};
+  std::int32_t ordinal[kCapacity + L];  // the test's place among its cell's references
   int size = 0;
+
+  /// Appends the tests of lane `l` against refs[k] for k < count (count <= the room
+  /// left), with ordinals from `ordinal0`.
+  void append(int l, const std::uint32_t* refs, int count, int ordinal0) {
+    const __m256i iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    for (int j = 0; j < count; j += L) {
+      const __m256i valid = _mm256_cmpgt_epi32(_mm256_set1_epi32(count - j), iota);
+      const __m256i ids =
+          _mm256_maskload_epi32(reinterpret_cast<const int*>(refs + j), valid);  // no overread
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(prim + size + j), ids);
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(lane + size + j), _mm256_set1_epi32(l));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(ordinal + size + j),
+                          _mm256_add_epi32(iota, _mm256_set1_epi32(ordinal0 + j)));
+    }
+    size += count;
+  }
 };
 
 /// What the lane-wise triangle test found for a batch of tests, bit p for test first + p.
@@ -394,6 +454,7 @@ template <Query kQuery, typename CellT>
 void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span<Hit> hits,
                       std::span<RayWork> work) {
   const CellT* cells = cell_array<CellT>(grid);
+  const TriangleVertices* triangles = grid.triangles;
   const bool counted = !work.empty();
   Lanes s{};       // the walks in flight
   Lanes staged{};  // walks begun ahead, eight rays at a time
@@ -437,17 +498,7 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
 
   while (active != 0) {
     const __m256i lanes = lanes_of(active);
-    find_cells(grid, s, c, lanes);
-    for (std::uint32_t bits = active; bits != 0; bits &= bits - 1) {
-      const int l = __builtin_ctz(bits);
-      const Cell cell = load_cell(cells, c.index[l]);
-      for (int a = 0; a < 3; ++a) {
-        c.lo[a][l] = cell.lo[a];
-        c.hi[a][l] = cell.hi[a];
-      }
-      c.begin[l] = std::int32_t(cell.begin);
-      c.end[l] = std::int32_t(cell.end);
-    }
+    find_cells(grid, cells, s, c, lanes);
     const LaneExit exit = cell_exits(s, c);
 
     // The triangles: all lanes' tests are listed, and their triangles requested, before the
@@ -494,14 +545,17 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
     };
     for (std::uint32_t bits = active; bits != 0; bits &= bits - 1) {
       const int l = __builtin_ctz(bits);
-      for (std::int32_t r = c.begin[l]; r < c.end[l]; ++r) {
+      const std::int32_t begin = c.begin[l], count = c.end[l] - begin;
+      for (std::int32_t done = 0; done < count;) {
         if (kQuery == Query::any && (hit_lanes >> l & 1)) break;
-        const std::uint32_t id = grid.refs[r];
-        __builtin_prefetch(&grid.triangles[id]);
-        list.lane[list.size] = l;
-        list.prim[list.size] = id;
-        list.ordinal[list.size] = r - c.begin[l];
-        if (++list.size == TestList::kCapacity) run_tests();
+        const int room = TestList::kCapacity - list.size;
+        const int take = count - done < room ? count - done : room;
+        const std::uint32_t* ids = list.prim + list.size;
+        list.append(l, grid.refs + begin + done, take, done);
+        for (int k = 0; k < take; ++k)
+          __builtin_prefetch(triangles + ids[k]);
+        done += take;
+        if (list.size == TestList::kCapacity) run_tests();
       }
     }
     if (list.size > 0) run_tests();
