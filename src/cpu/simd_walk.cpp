@@ -322,22 +322,26 @@ struct alignas(32) TestList {
   std::int32_t ordinal[kCapacity + L];  // the test's place among its cell's references
   int size = 0;
 
-  /// Appends the tests of lane `l` against refs[k] for k < count (count <= the room
-  /// left), with ordinals from `ordinal0`.
-  void append(int l, const std::uint32_t* refs, int count, int ordinal0) {
+  /// Appends the tests of lane `l` against refs[k] for k < count (count <= L and <= the room
+  /// left), with ordinals from `ordinal0`: one masked row, no branch.
+  void append_row(int l, const std::uint32_t* refs, int count, int ordinal0) {
     const __m256i iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-    for (int j = 0; j < count; j += L) {
-      const __m256i valid = _mm256_cmpgt_epi32(_mm256_set1_epi32(count - j), iota);
-      const __m256i ids =
-          _mm256_maskload_epi32(reinterpret_cast<const int*>(refs + j), valid);  // no overread
-      _mm256_storeu_si256(reinterpret_cast<__m256i*>(prim + size + j), ids);
-      _mm256_storeu_si256(reinterpret_cast<__m256i*>(lane + size + j), _mm256_set1_epi32(l));
-      _mm256_storeu_si256(reinterpret_cast<__m256i*>(ordinal + size + j),
-                          _mm256_add_epi32(iota, _mm256_set1_epi32(ordinal0 + j)));
-    }
+    const __m256i valid = _mm256_cmpgt_epi32(_mm256_set1_epi32(count), iota);
+    const __m256i ids =
+        _mm256_maskload_epi32(reinterpret_cast<const int*>(refs), valid);  // no overread
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(prim + size), ids);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(lane + size), _mm256_set1_epi32(l));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(ordinal + size),
+                        _mm256_add_epi32(iota, _mm256_set1_epi32(ordinal0)));
     size += count;
   }
+  /// append_row for any count <= the room left.
+  void append(int l, const std::uint32_t* refs, int count, int ordinal0) {
+    for (int j = 0; j < count; j += L)
+      append_row(l, refs + j, count - j < L ? count - j : L, ordinal0 + j);
+  }
 };
+static_assert(TestList::kCapacity >= L * L, "L cells of at most L references each fit the list");
 
 /// What the lane-wise triangle test found for a batch of tests, bit p for test first + p.
 struct alignas(32) BatchHits {
@@ -543,24 +547,41 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
       }
       list.size = 0;
     };
-    for (std::uint32_t bits = active; bits != 0; bits &= bits - 1) {
-      const int l = __builtin_ctz(bits);
-      const std::int32_t begin = c.begin[l], count = c.end[l] - begin;
-      for (std::int32_t done = 0; done < count;) {
-        if (kQuery == Query::any && (hit_lanes >> l & 1)) break;
-        const int room = TestList::kCapacity - list.size;
-        const int take = count - done < room ? count - done : room;
-        const std::uint32_t* ids = list.prim + list.size;
-        list.append(l, grid.refs + begin + done, take, done);
-        for (int k = 0; k < take; ++k)
-          __builtin_prefetch(triangles + ids[k]);
-        done += take;
-        if (list.size == TestList::kCapacity) run_tests();
+    const __m256i cell_refs = _mm256_sub_epi32(load(c.end), load(c.begin));  // 0 in idle lanes
+    const __m256i long_cells = _mm256_cmpgt_epi32(cell_refs, _mm256_set1_epi32(L));
+    if (_mm256_testz_si256(long_cells, long_cells)) {
+      // The usual round: every cell has at most L references, and all fit the list (L rows of
+      // L). One row per lane, without branches, then the triangles of every listed test
+      // (slots past the size hold earlier, valid ids).
+      alignas(32) std::int32_t count[L];
+      store(count, cell_refs);
+#pragma GCC unroll 8
+      for (int l = 0; l < L; ++l)
+        list.append_row(l, grid.refs + c.begin[l], count[l], 0);
+      for (int row = 0; row < list.size; row += L) {
+#pragma GCC unroll 8
+        for (int k = 0; k < L; ++k)
+          __builtin_prefetch(triangles + list.prim[row + k]);
+      }
+    } else {
+      for (std::uint32_t bits = active; bits != 0; bits &= bits - 1) {
+        const int l = __builtin_ctz(bits);
+        const std::int32_t begin = c.begin[l], count = c.end[l] - begin;
+        for (std::int32_t done = 0; done < count;) {
+          if (kQuery == Query::any && (hit_lanes >> l & 1)) break;
+          const int room = TestList::kCapacity - list.size;
+          const int take = count - done < room ? count - done : room;
+          const std::uint32_t* ids = list.prim + list.size;
+          list.append(l, grid.refs + begin + done, take, done);
+          for (int k = 0; k < take; ++k)
+            __builtin_prefetch(triangles + ids[k]);
+          done += take;
+          if (list.size == TestList::kCapacity) run_tests();
+        }
       }
     }
     if (list.size > 0) run_tests();
     // Every listed test counts, except those past an any-hit query's hit (counted above).
-    const __m256i cell_refs = _mm256_sub_epi32(load(c.end), load(c.begin));
     const __m256i whole_cells =
         kQuery == Query::any ? _mm256_andnot_si256(lanes_of(hit_lanes), lanes) : lanes;
     store(triangles_tested,
