@@ -61,12 +61,13 @@ class GridCpu final : public GridAcceleratorBase {
   template <Query kQuery, typename CellT>
   void trace_query(std::span<const Ray> rays, std::span<Hit> hits, std::span<RayWork> work) const {
     const GridView view = this->view();
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rays.size(), 256), [&](const auto& range) {
-      const std::size_t first = range.begin(), count = range.size();
-      trace_chunk<kQuery, CellT>(view, info_.memory_bytes, rays.subspan(first, count),
-                                 hits.subspan(first, count),
-                                 work.empty() ? work : work.subspan(first, count));
-    });
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, rays.size(), 1024), [&](const auto& range) {
+          const std::size_t first = range.begin(), count = range.size();
+          trace_chunk<kQuery, CellT>(view, info_.memory_bytes, rays.subspan(first, count),
+                                     hits.subspan(first, count),
+                                     work.empty() ? work : work.subspan(first, count));
+        });
   }
 
   GridArrays<CpuExecutor> grid_;

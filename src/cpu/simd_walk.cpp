@@ -253,44 +253,6 @@ void load_cells(const CompactCell* cells, __m256i index, __m256i mask, LaneCells
   store(c.end, gather_field<16 + 12, 16>(cells, index, mask));  // the next cell's begin
 }
 
-/// The cell of each active lane's voxel (lookup_cell, lane-wise): one gather per map level,
-/// then the cell's fields.
-template <typename CellT>
-void find_cells(const GridView& grid, const CellT* cells, const Lanes& s, LaneCells& c,
-                __m256i active) {
-  const GridInfo& info = grid.info;
-  const __m128i top_shift = _mm_cvtsi32_si128(info.shift);
-  const __m256i v[3] = {load(s.voxel[0]), load(s.voxel[1]), load(s.voxel[2])};
-  const __m256i top_x = _mm256_sra_epi32(v[0], top_shift);
-  const __m256i top_y = _mm256_sra_epi32(v[1], top_shift);
-  const __m256i top_z = _mm256_sra_epi32(v[2], top_shift);
-  const __m256i top = _mm256_add_epi32(
-      _mm256_mullo_epi32(
-          _mm256_add_epi32(_mm256_mullo_epi32(top_z, _mm256_set1_epi32(info.top_dims[1])), top_y),
-          _mm256_set1_epi32(info.top_dims[0])),
-      top_x);
-  __m256i entry = gather(grid.entries, top, active);
-  __m256i level_shift = _mm256_set1_epi32(info.shift);
-  const __m256i zero = _mm256_setzero_si256(), one = _mm256_set1_epi32(1);
-  __m256i inner = _mm256_and_si256(active, _mm256_cmpgt_epi32(_mm256_srli_epi32(entry, 30), zero));
-  while (!_mm256_testz_si256(inner, inner)) {
-    const __m256i k = _mm256_srli_epi32(entry, 30);  // 0 in leaf and idle lanes
-    const __m256i mask = _mm256_sub_epi32(_mm256_sllv_epi32(one, k), one);
-    level_shift = _mm256_sub_epi32(level_shift, k);
-    const __m256i cx = _mm256_and_si256(_mm256_srav_epi32(v[0], level_shift), mask);
-    const __m256i cy = _mm256_and_si256(_mm256_srav_epi32(v[1], level_shift), mask);
-    const __m256i cz = _mm256_and_si256(_mm256_srav_epi32(v[2], level_shift), mask);
-    const __m256i child =
-        _mm256_or_si256(_mm256_sllv_epi32(_mm256_or_si256(_mm256_sllv_epi32(cz, k), cy), k), cx);
-    const __m256i index =
-        _mm256_add_epi32(_mm256_and_si256(entry, _mm256_set1_epi32(int(kMaxEntryTarget))), child);
-    entry = _mm256_mask_i32gather_epi32(entry, reinterpret_cast<const int*>(grid.entries), index,
-                                        inner, 4);
-    inner = _mm256_and_si256(inner, _mm256_cmpgt_epi32(_mm256_srli_epi32(entry, 30), zero));
-  }
-  load_cells(cells, _mm256_and_si256(entry, _mm256_set1_epi32(int(kMaxEntryTarget))), active, c);
-}
-
 /// cell_exit, lane-wise: the far plane and its t per axis, and the nearest t capped at t_leave.
 struct LaneExit {
   __m256i far[3];
@@ -452,25 +414,85 @@ __m256i step_lanes(const GridInfo& info, Lanes& s, const LaneExit& e) {
   return _mm256_or_si256(ends, outside);
 }
 
+/// One set of L walks in flight, with the cells and tests of its current round.
+struct alignas(32) Group {
+  Lanes s{};
+  LaneCells c{};
+  TestList list;
+  std::int32_t cells_visited[L] = {}, triangles_tested[L] = {};  // TraversalCounters
+  std::uint32_t ray_of[L] = {};
+  std::uint32_t active = 0;     // lanes with a walk
+  std::uint32_t hit_lanes = 0;  // any hit: lanes that found one this round
+};
+
+/// The cell of each active lane's voxel (lookup_cell, lane-wise), for every group: one gather
+/// per map level, then the cell's fields. The groups descend together, so that the gathers of
+/// one group wait for memory while the others' are in flight too.
+template <typename CellT, int G>
+void find_cells(const GridView& grid, const CellT* cells, Group (&groups)[G]) {
+  const GridInfo& info = grid.info;
+  const __m128i top_shift = _mm_cvtsi32_si128(info.shift);
+  const __m256i zero = _mm256_setzero_si256(), one = _mm256_set1_epi32(1);
+  __m256i v[G][3], entry[G], level_shift[G], inner[G];
+  for (int g = 0; g < G; ++g) {
+    const __m256i active = lanes_of(groups[g].active);
+    for (int a = 0; a < 3; ++a)
+      v[g][a] = load(groups[g].s.voxel[a]);
+    const __m256i top_x = _mm256_sra_epi32(v[g][0], top_shift);
+    const __m256i top_y = _mm256_sra_epi32(v[g][1], top_shift);
+    const __m256i top_z = _mm256_sra_epi32(v[g][2], top_shift);
+    const __m256i top = _mm256_add_epi32(
+        _mm256_mullo_epi32(
+            _mm256_add_epi32(_mm256_mullo_epi32(top_z, _mm256_set1_epi32(info.top_dims[1])), top_y),
+            _mm256_set1_epi32(info.top_dims[0])),
+        top_x);
+    entry[g] = gather(grid.entries, top, active);
+    level_shift[g] = _mm256_set1_epi32(info.shift);
+    inner[g] = _mm256_and_si256(active, _mm256_cmpgt_epi32(_mm256_srli_epi32(entry[g], 30), zero));
+  }
+  for (bool descending = true; descending;) {
+    descending = false;
+    for (int g = 0; g < G; ++g) {
+      if (_mm256_testz_si256(inner[g], inner[g])) continue;
+      descending = true;
+      const __m256i k = _mm256_srli_epi32(entry[g], 30);  // 0 in leaf and idle lanes
+      const __m256i mask = _mm256_sub_epi32(_mm256_sllv_epi32(one, k), one);
+      level_shift[g] = _mm256_sub_epi32(level_shift[g], k);
+      const __m256i cx = _mm256_and_si256(_mm256_srav_epi32(v[g][0], level_shift[g]), mask);
+      const __m256i cy = _mm256_and_si256(_mm256_srav_epi32(v[g][1], level_shift[g]), mask);
+      const __m256i cz = _mm256_and_si256(_mm256_srav_epi32(v[g][2], level_shift[g]), mask);
+      const __m256i child =
+          _mm256_or_si256(_mm256_sllv_epi32(_mm256_or_si256(_mm256_sllv_epi32(cz, k), cy), k), cx);
+      const __m256i index = _mm256_add_epi32(
+          _mm256_and_si256(entry[g], _mm256_set1_epi32(int(kMaxEntryTarget))), child);
+      entry[g] = _mm256_mask_i32gather_epi32(entry[g], reinterpret_cast<const int*>(grid.entries),
+                                             index, inner[g], 4);
+      inner[g] =
+          _mm256_and_si256(inner[g], _mm256_cmpgt_epi32(_mm256_srli_epi32(entry[g], 30), zero));
+    }
+  }
+  for (int g = 0; g < G; ++g)
+    load_cells(cells, _mm256_and_si256(entry[g], _mm256_set1_epi32(int(kMaxEntryTarget))),
+               lanes_of(groups[g].active), groups[g].c);
+}
+
 }  // namespace
 
 template <Query kQuery, typename CellT>
 void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span<Hit> hits,
                       std::span<RayWork> work) {
+  constexpr int G = kSimdWalkGroups;
   const CellT* cells = cell_array<CellT>(grid);
   const TriangleVertices* triangles = grid.triangles;
   const bool counted = !work.empty();
-  Lanes s{};       // the walks in flight
+  Group groups[G];
   Lanes staged{};  // walks begun ahead, eight rays at a time
-  LaneCells c{};
-  std::uint32_t ray_of[L], staged_ray[L];
+  std::uint32_t staged_ray[L];
   std::uint32_t staged_ready = 0;  // slots of `staged` whose ray enters the grid, not yet taken
-  alignas(32) std::int32_t cells_visited[L] = {}, triangles_tested[L] = {};  // TraversalCounters
-  TestList list;
   std::size_t next = 0;
-  // Gives the lanes of `idle` the next rays that enter the grid; rays that miss it are answered
-  // at once. Returns the lanes that got one.
-  const auto start = [&](std::uint32_t idle) {
+  // Gives the lanes of `idle` in `group` the next rays that enter the grid; rays that miss it
+  // are answered at once. Returns the lanes that got one.
+  const auto start = [&](Group& group, std::uint32_t idle) {
     std::uint32_t started = 0;
     while (idle != 0) {
       if (staged_ready == 0) {
@@ -489,64 +511,62 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
         continue;
       }
       const int l = __builtin_ctz(idle), slot = __builtin_ctz(staged_ready);
-      copy_lane(s, l, staged, slot);
-      ray_of[l] = staged_ray[slot];
-      cells_visited[l] = triangles_tested[l] = 0;
+      copy_lane(group.s, l, staged, slot);
+      group.ray_of[l] = staged_ray[slot];
+      group.cells_visited[l] = group.triangles_tested[l] = 0;
       started |= 1u << l;
       idle &= idle - 1;
       staged_ready &= staged_ready - 1;
     }
     return started;
   };
-  std::uint32_t active = start((1u << L) - 1);
-
-  while (active != 0) {
-    const __m256i lanes = lanes_of(active);
-    find_cells(grid, cells, s, c, lanes);
-    const LaneExit exit = cell_exits(s, c);
-
-    // The triangles: all lanes' tests are listed, and their triangles requested, before the
-    // first test waits on one of them.
-    std::uint32_t hit_lanes = 0;  // any hit: lanes that found one, done with this cell
+  // Runs the listed tests of `group` and keeps each lane's closest (or any) hit.
+  const auto run_tests = [&](Group& group) {
+    Lanes& s = group.s;
+    TestList& list = group.list;
     BatchHits batch;
-    const auto run_tests = [&] {
-      for (int first = 0; first < list.size; first += L) {
-        const int count = list.size - first < L ? list.size - first : L;
-        test_triangles(grid, s, list, first, count, batch);
-        // Only the tests that hit, or need the scalar test, are looked at one by one, in order.
-        for (std::uint32_t bits = batch.hits | batch.scalar; bits != 0; bits &= bits - 1) {
-          const int p = __builtin_ctz(bits);
-          const int l = list.lane[first + p];
-          if (kQuery == Query::any && (hit_lanes >> l & 1)) continue;
-          const std::uint32_t id = list.prim[first + p];
-          TriangleHit<float> hit{batch.t[p], batch.u[p], batch.v[p]};
-          if (batch.scalar >> p & 1) {
-            const TriangleVertices& tri = grid.triangles[id];
-            const WatertightRay<float> ray{{s.org_k[0][l], s.org_k[1][l], s.org_k[2][l]},
-                                           s.axis[0][l],
-                                           s.axis[1][l],
-                                           s.axis[2][l],
-                                           s.shear[0][l],
-                                           s.shear[1][l],
-                                           s.shear[2][l],
-                                           s.tmin[l],
-                                           s.tmax[l]};
-            if (!intersect_watertight(ray, tri.p0, tri.p1, tri.p2, float(INFINITY), hit)) continue;
-          }
-          const float best_t = s.best_t[l];
-          if (hit.t > best_t || (hit.t == best_t && id > std::uint32_t(s.best_prim[l]))) continue;
-          s.best_t[l] = hit.t;
-          s.best_u[l] = hit.u;
-          s.best_v[l] = hit.v;
-          s.best_prim[l] = std::int32_t(id);
-          if constexpr (kQuery == Query::any) {
-            hit_lanes |= 1u << l;
-            triangles_tested[l] += list.ordinal[first + p] + 1;  // the tests up to this hit
-          }
+    for (int first = 0; first < list.size; first += L) {
+      const int count = list.size - first < L ? list.size - first : L;
+      test_triangles(grid, s, list, first, count, batch);
+      // Only the tests that hit, or need the scalar test, are looked at one by one, in order.
+      for (std::uint32_t bits = batch.hits | batch.scalar; bits != 0; bits &= bits - 1) {
+        const int p = __builtin_ctz(bits);
+        const int l = list.lane[first + p];
+        if (kQuery == Query::any && (group.hit_lanes >> l & 1)) continue;
+        const std::uint32_t id = list.prim[first + p];
+        TriangleHit<float> hit{batch.t[p], batch.u[p], batch.v[p]};
+        if (batch.scalar >> p & 1) {
+          const TriangleVertices& tri = grid.triangles[id];
+          const WatertightRay<float> ray{{s.org_k[0][l], s.org_k[1][l], s.org_k[2][l]},
+                                         s.axis[0][l],
+                                         s.axis[1][l],
+                                         s.axis[2][l],
+                                         s.shear[0][l],
+                                         s.shear[1][l],
+                                         s.shear[2][l],
+                                         s.tmin[l],
+                                         s.tmax[l]};
+          if (!intersect_watertight(ray, tri.p0, tri.p1, tri.p2, float(INFINITY), hit)) continue;
+        }
+        const float best_t = s.best_t[l];
+        if (hit.t > best_t || (hit.t == best_t && id > std::uint32_t(s.best_prim[l]))) continue;
+        s.best_t[l] = hit.t;
+        s.best_u[l] = hit.u;
+        s.best_v[l] = hit.v;
+        s.best_prim[l] = std::int32_t(id);
+        if constexpr (kQuery == Query::any) {
+          group.hit_lanes |= 1u << l;
+          group.triangles_tested[l] += list.ordinal[first + p] + 1;  // the tests up to this hit
         }
       }
-      list.size = 0;
-    };
+    }
+    list.size = 0;
+  };
+  // Lists the tests of the cells of `group`, each lane's in its reference order, and requests
+  // their triangles. Runs the tests early only when the list fills.
+  const auto list_tests = [&](Group& group) {
+    const LaneCells& c = group.c;
+    TestList& list = group.list;
     const __m256i cell_refs = _mm256_sub_epi32(load(c.end), load(c.begin));  // 0 in idle lanes
     const __m256i long_cells = _mm256_cmpgt_epi32(cell_refs, _mm256_set1_epi32(L));
     if (_mm256_testz_si256(long_cells, long_cells)) {
@@ -563,40 +583,68 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
         for (int k = 0; k < L; ++k)
           __builtin_prefetch(triangles + list.prim[row + k]);
       }
-    } else {
-      for (std::uint32_t bits = active; bits != 0; bits &= bits - 1) {
-        const int l = __builtin_ctz(bits);
-        const std::int32_t begin = c.begin[l], count = c.end[l] - begin;
-        for (std::int32_t done = 0; done < count;) {
-          if (kQuery == Query::any && (hit_lanes >> l & 1)) break;
-          const int room = TestList::kCapacity - list.size;
-          const int take = count - done < room ? count - done : room;
-          const std::uint32_t* ids = list.prim + list.size;
-          list.append(l, grid.refs + begin + done, take, done);
-          for (int k = 0; k < take; ++k)
-            __builtin_prefetch(triangles + ids[k]);
-          done += take;
-          if (list.size == TestList::kCapacity) run_tests();
-        }
+      return;
+    }
+    for (std::uint32_t bits = group.active; bits != 0; bits &= bits - 1) {
+      const int l = __builtin_ctz(bits);
+      const std::int32_t begin = c.begin[l], count = c.end[l] - begin;
+      for (std::int32_t done = 0; done < count;) {
+        if (kQuery == Query::any && (group.hit_lanes >> l & 1)) break;
+        const int room = TestList::kCapacity - list.size;
+        const int take = count - done < room ? count - done : room;
+        const std::uint32_t* ids = list.prim + list.size;
+        list.append(l, grid.refs + begin + done, take, done);
+        for (int k = 0; k < take; ++k)
+          __builtin_prefetch(triangles + ids[k]);
+        done += take;
+        if (list.size == TestList::kCapacity) run_tests(group);
       }
     }
-    if (list.size > 0) run_tests();
-    // Every listed test counts, except those past an any-hit query's hit (counted above).
-    const __m256i whole_cells =
-        kQuery == Query::any ? _mm256_andnot_si256(lanes_of(hit_lanes), lanes) : lanes;
-    store(triangles_tested,
-          _mm256_add_epi32(load(triangles_tested), _mm256_and_si256(cell_refs, whole_cells)));
+  };
 
-    const std::uint32_t ended = (lane_bits(step_lanes(grid.info, s, exit)) | hit_lanes) & active;
-    store(cells_visited, _mm256_sub_epi32(load(cells_visited), lanes));  // lanes: -1 each
-    for (std::uint32_t bits = ended; bits != 0; bits &= bits - 1) {
-      const int l = __builtin_ctz(bits);
-      const auto prim = std::uint32_t(s.best_prim[l]);
-      hits[ray_of[l]] = prim == kNoHit ? Hit{} : Hit{prim, s.best_t[l], s.best_u[l], s.best_v[l]};
-      if (counted)
-        work[ray_of[l]] = {std::uint32_t(cells_visited[l]), std::uint32_t(triangles_tested[l])};
+  bool walking = false;
+  for (Group& group : groups)
+    walking |= (group.active = start(group, (1u << L) - 1)) != 0;
+  while (walking) {
+    // Every phase runs for all groups before the next phase, so that one group's loads are
+    // in flight while another computes.
+    find_cells(grid, cells, groups);
+    LaneExit exit[G];
+    for (int g = 0; g < G; ++g) {
+      exit[g] = cell_exits(groups[g].s, groups[g].c);
+      groups[g].hit_lanes = 0;
+      list_tests(groups[g]);
     }
-    active = (active & ~ended) | start(ended);
+    walking = false;
+    for (Group& group : groups) {
+      if (group.active == 0) continue;
+      if (group.list.size > 0) run_tests(group);
+      const __m256i lanes = lanes_of(group.active);
+      const LaneCells& c = group.c;
+      // Every listed test counts, except those past an any-hit query's hit (counted above).
+      const __m256i cell_refs = _mm256_sub_epi32(load(c.end), load(c.begin));
+      const __m256i whole_cells =
+          kQuery == Query::any ? _mm256_andnot_si256(lanes_of(group.hit_lanes), lanes) : lanes;
+      store(group.triangles_tested, _mm256_add_epi32(load(group.triangles_tested),
+                                                     _mm256_and_si256(cell_refs, whole_cells)));
+      const int g = int(&group - groups);
+      const std::uint32_t ended =
+          (lane_bits(step_lanes(grid.info, group.s, exit[g])) | group.hit_lanes) & group.active;
+      store(group.cells_visited,
+            _mm256_sub_epi32(load(group.cells_visited), lanes));  // lanes: -1 each
+      const Lanes& s = group.s;
+      for (std::uint32_t bits = ended; bits != 0; bits &= bits - 1) {
+        const int l = __builtin_ctz(bits);
+        const auto prim = std::uint32_t(s.best_prim[l]);
+        const std::uint32_t ray = group.ray_of[l];
+        hits[ray] = prim == kNoHit ? Hit{} : Hit{prim, s.best_t[l], s.best_u[l], s.best_v[l]};
+        if (counted)
+          work[ray] = {std::uint32_t(group.cells_visited[l]),
+                       std::uint32_t(group.triangles_tested[l])};
+      }
+      group.active = (group.active & ~ended) | start(group, ended);
+      walking |= group.active != 0;
+    }
   }
 }
 

@@ -21,6 +21,9 @@ namespace irgrid {
 
 /// Rays in flight per thread in the SIMD walk: the 32-bit lanes of an AVX2 register.
 inline constexpr int kSimdWalkLanes = 8;
+/// Sets of kSimdWalkLanes walks per thread, advanced phase by phase together so that the
+/// memory accesses of one set overlap the work of the others.
+inline constexpr int kSimdWalkGroups = 4;
 
 /// Whether this CPU has AVX2 and the grid's arrays fit the walk's 32-bit gather indices (9
 /// floats per triangle: fewer than 2^31 / 9 triangles).
