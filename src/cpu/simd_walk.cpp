@@ -616,7 +616,8 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
       list_tests(groups[g]);
     }
     walking = false;
-    for (Group& group : groups) {
+    for (int g = 0; g < G; ++g) {
+      Group& group = groups[g];
       if (group.active == 0) continue;
       if (group.list.size > 0) run_tests(group);
       const __m256i lanes = lanes_of(group.active);
@@ -627,7 +628,6 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
           kQuery == Query::any ? _mm256_andnot_si256(lanes_of(group.hit_lanes), lanes) : lanes;
       store(group.triangles_tested, _mm256_add_epi32(load(group.triangles_tested),
                                                      _mm256_and_si256(cell_refs, whole_cells)));
-      const int g = int(&group - groups);
       const std::uint32_t ended =
           (lane_bits(step_lanes(grid.info, group.s, exit[g])) | group.hit_lanes) & group.active;
       store(group.cells_visited,
