@@ -564,10 +564,9 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
   };
   // Lists the tests of the cells of `group`, each lane's in its reference order, and requests
   // their triangles. Runs the tests early only when the list fills.
-  const auto list_tests = [&](Group& group) {
+  const auto list_tests = [&](Group& group, __m256i cell_refs) {
     const LaneCells& c = group.c;
     TestList& list = group.list;
-    const __m256i cell_refs = _mm256_sub_epi32(load(c.end), load(c.begin));  // 0 in idle lanes
     const __m256i long_cells = _mm256_cmpgt_epi32(cell_refs, _mm256_set1_epi32(L));
     if (_mm256_testz_si256(long_cells, long_cells)) {
       // The usual round: every cell has at most L references, and all fit the list (L rows of
@@ -610,10 +609,12 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
     // in flight while another computes.
     find_cells(grid, cells, groups);
     LaneExit exit[G];
+    __m256i cell_refs[G];  // references per lane's cell, 0 in idle lanes
     for (int g = 0; g < G; ++g) {
       exit[g] = cell_exits(groups[g].s, groups[g].c);
       groups[g].hit_lanes = 0;
-      list_tests(groups[g]);
+      cell_refs[g] = _mm256_sub_epi32(load(groups[g].c.end), load(groups[g].c.begin));
+      list_tests(groups[g], cell_refs[g]);
     }
     walking = false;
     for (int g = 0; g < G; ++g) {
@@ -621,13 +622,11 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
       if (group.active == 0) continue;
       if (group.list.size > 0) run_tests(group);
       const __m256i lanes = lanes_of(group.active);
-      const LaneCells& c = group.c;
       // Every listed test counts, except those past an any-hit query's hit (counted above).
-      const __m256i cell_refs = _mm256_sub_epi32(load(c.end), load(c.begin));
       const __m256i whole_cells =
           kQuery == Query::any ? _mm256_andnot_si256(lanes_of(group.hit_lanes), lanes) : lanes;
       store(group.triangles_tested, _mm256_add_epi32(load(group.triangles_tested),
-                                                     _mm256_and_si256(cell_refs, whole_cells)));
+                                                     _mm256_and_si256(cell_refs[g], whole_cells)));
       const std::uint32_t ended =
           (lane_bits(step_lanes(grid.info, group.s, exit[g])) | group.hit_lanes) & group.active;
       store(group.cells_visited,

@@ -19,14 +19,15 @@
 
 namespace irgrid {
 
-/// Rays in flight per thread in the SIMD walk: the 32-bit lanes of an AVX2 register.
+/// Walks per group of the SIMD walk: the 32-bit lanes of an AVX2 register.
 inline constexpr int kSimdWalkLanes = 8;
 /// Sets of kSimdWalkLanes walks per thread, advanced phase by phase together so that the
 /// memory accesses of one set overlap the work of the others.
 inline constexpr int kSimdWalkGroups = 4;
 
 /// Whether this CPU has AVX2 and the grid's arrays fit the walk's 32-bit gather indices (9
-/// floats per triangle: fewer than 2^31 / 9 triangles).
+/// floats per triangle: fewer than 2^31 / 9 triangles; cells read in 8-byte units: fewer than
+/// 2^29 cells).
 bool simd_walk_supported(const GridInfo& info);
 
 /// Traces rays[i] into hits[i] (and the work of each into work[i] when work is not empty) with
