@@ -20,29 +20,34 @@ namespace irgrid {
 namespace expand_detail {
 
 /// Grows every cell along `axis` (both directions) from the boxes in grid.cells into `out`.
-/// `can_grow` holds one bit per axis and cell; a cell whose bit is clear is copied unchanged, and
-/// the bit is cleared when neither direction grew by the full depth of its neighbours (blocked
-/// by the grid boundary or by a list), since such a cell is unlikely to grow along that axis in
-/// a later pass. The bits only save work: clearing one never makes the grid wrong.
+/// `can_grow` holds one bit per face (bit 2 * axis for the lower face, 2 * axis + 1 for the
+/// upper one) and cell; a face whose bit is clear stays where it is, and the bit is cleared when
+/// the face did not grow by the full depth of its neighbours (blocked by the grid boundary or by
+/// a list): the same neighbours still own the voxels past that face in later passes, so it would
+/// mostly be blocked again. The bits only save work: clearing one never makes the grid wrong.
 template <typename Exec>
 void expand_axis(Exec& exec, const GridArrays<Exec>& grid, Cell* out, std::uint8_t* can_grow,
                  int axis, bool partial, std::int32_t growth_quantum) {
   const ExpandView view{grid.info,        grid.entries.data(),   grid.cells.data(),
                         grid.refs.data(), grid.triangles.data(), partial,
                         growth_quantum};
-  const auto bit = std::uint8_t(1u << axis);
+  const auto down_bit = std::uint8_t(1u << (2 * axis)), up_bit = std::uint8_t(2u << (2 * axis));
   exec.for_each("expand cells", grid.info.num_cells, [=] IRGRID_HD(std::size_t i) {
     Cell cell = view.cells[i];
-    if (can_grow[i] & bit) {
-      // Both directions read the snapshot box; the two slabs are disjoint and each is safe
-      // on its own, so their union is too.
+    std::uint8_t faces = can_grow[i];
+    // Both directions read the snapshot box; the two slabs are disjoint and each is safe on its
+    // own, so their union is too.
+    if (faces & up_bit) {
       const FaceGrowth up = face_growth(view, cell, axis, +1);
-      const FaceGrowth down = face_growth(view, cell, axis, -1);
       cell.hi[axis] += up.voxels;
-      cell.lo[axis] -= down.voxels;
-      if (!up.may_grow_further && !down.may_grow_further)
-        can_grow[i] = std::uint8_t(can_grow[i] & ~bit);
+      if (!up.may_grow_further) faces = std::uint8_t(faces & ~up_bit);
     }
+    if (faces & down_bit) {
+      const FaceGrowth down = face_growth(view, view.cells[i], axis, -1);
+      cell.lo[axis] -= down.voxels;
+      if (!down.may_grow_further) faces = std::uint8_t(faces & ~down_bit);
+    }
+    can_grow[i] = faces;
     out[i] = cell;
   });
 }
@@ -68,7 +73,7 @@ void expand_cells(Exec& exec, GridArrays<Exec>& grid, int passes, bool partial,
   auto back = exec.template allocate<Cell>(count);
   auto can_grow = exec.template allocate<std::uint8_t>(count);
   std::uint8_t* d_can_grow = can_grow.data();
-  exec.for_each("expand flags", count, [=] IRGRID_HD(std::size_t i) { d_can_grow[i] = 7; });
+  exec.for_each("expand flags", count, [=] IRGRID_HD(std::size_t i) { d_can_grow[i] = 0x3f; });
   for (int pass = 0; pass < passes; ++pass)
     for (int axis = 0; axis < 3; ++axis) {
       expand_detail::expand_axis(exec, grid, back.data(), d_can_grow, axis, partial,
