@@ -23,6 +23,7 @@ struct BenchOptions {
                      format = "irgrid", json, compare;
   StructureOptions structure;
   int repeat = 5;
+  int build_repeat = -1;  // timed builds; below 0: as many as `repeat`
   std::uint64_t validate = 10000;
   bool any_hit = false;
   RayConfig config;
@@ -69,15 +70,17 @@ std::vector<Contender> parse_contenders(const BenchOptions& o) {
   return contenders;
 }
 
-/// Builds once to warm up, then `repeat` more times; keeps the last and the median time.
+/// Builds once to warm up, then `repeat` more times; keeps the last and the median time (the
+/// warm-up's time when repeat is 0).
 void timed_build(const Scene& scene, int repeat, Contender& c) {
   Progress progress(fmt::format("building {} ({} times)", c.structure, repeat + 1),
                     std::uint64_t(repeat + 1) * kGridBuildPhases);
   AcceleratorOptions options = c.options;
   options.on_phase = [&](const char*) { progress.advance(1); };
   c.accelerator = make_accelerator(scene, c.structure, options);
-  std::vector<double> times;
+  std::vector<double> times{c.accelerator->build_info().build_ms};
   for (int i = 0; i < repeat; ++i) {
+    if (i == 0) times.clear();
     c.accelerator.reset();
     c.accelerator = make_accelerator(scene, c.structure, options);
     times.push_back(c.accelerator->build_info().build_ms);
@@ -176,12 +179,13 @@ void run_standard_kinds(const Scene& scene, const ReferenceTracer& reference, co
 
 int run_bench(BenchOptions o) {
   if (o.repeat < 1) throw Error(ErrorCode::invalid_argument, "--repeat must be at least 1");
+  if (o.build_repeat < 0) o.build_repeat = o.repeat;
   if (o.config.count == 0)
     o.config.count = std::uint64_t(o.config.width) * std::uint64_t(o.config.height);
   const Scene scene = load_scene_reporting(o.scene);
   auto contenders = parse_contenders(o);
   for (auto& c : contenders)
-    timed_build(scene, o.repeat, c);
+    timed_build(scene, o.build_repeat, c);
   const ReferenceTracer reference(scene);
   if (!o.rays_file.empty()) {
     const auto rays = read_rays(o.rays_file, parse_ray_format(o.format));
@@ -235,6 +239,9 @@ void add_bench_command(CLI::App& app) {
   cmd->add_flag("--any-hit", o->any_hit, "With --rays: occlusion queries");
   cmd->add_option("--repeat", o->repeat, "Timed repetitions (median reported)")
       ->capture_default_str();
+  cmd->add_option("--build-repeat", o->build_repeat,
+                  "Timed builds after the warm-up build (default: as many as --repeat; 0: report "
+                  "the warm-up build)");
   cmd->add_option("--validate", o->validate,
                   "Rays per run checked against the double reference (0: off)")
       ->capture_default_str();
