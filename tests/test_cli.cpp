@@ -155,6 +155,17 @@ TEST_F(Cli, BenchValidatesAndWritesJson) {
   }
 }
 
+TEST_F(Cli, BenchBuildRepeatCountsTheTimedBuilds) {
+  const auto [r, json] = run_json(
+      "bench builtin:cornell --kinds primary --views 0 --width 8 --height 8 --repeat 2 "
+      "--build-repeat 0 --validate 20",
+      "build-repeat.json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("(median of 1 builds)"), std::string::npos) << r.err;
+  EXPECT_GT(json["build_ms"].get<double>(), 0.0);
+  EXPECT_EQ(run("bench builtin:cornell --build-repeat -1").code, 2);
+}
+
 TEST_F(Cli, ThreadsOptionCapsTheThreadPool) {
   const auto [r, json] = run_json(
       "--threads 1 bench builtin:cornell --kinds primary --views 0 --width 16 --height 16 "

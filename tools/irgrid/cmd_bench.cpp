@@ -93,8 +93,8 @@ void timed_build(const Scene& scene, int repeat, Contender& c) {
               c.accelerator->build_info(),
               {}};
   c.result.build.build_ms = median(times);
-  fmt::print(stderr, "built {} on {}: median {:.1f} ms\n", c.result.structure, c.result.backend,
-             c.result.build.build_ms);
+  fmt::print(stderr, "built {} on {}: {:.1f} ms (median of {} builds)\n", c.result.structure,
+             c.result.backend, c.result.build.build_ms, times.size());
 }
 
 BenchRun measure(const Scene& scene, const ReferenceTracer& reference,
@@ -241,7 +241,8 @@ void add_bench_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--build-repeat", o->build_repeat,
                   "Timed builds after the warm-up build (default: as many as --repeat; 0: report "
-                  "the warm-up build)");
+                  "the warm-up build)")
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--validate", o->validate,
                   "Rays per run checked against the double reference (0: off)")
       ->capture_default_str();
