@@ -281,6 +281,32 @@ Grid build_octree_form_grid(const Scene& scene) {
   return grid;
 }
 
+TEST(CellOrder, SpreadBitsPutsBitKAtBit3K) {
+  EXPECT_EQ(spread_bits_by_3(0), 0u);
+  EXPECT_EQ(spread_bits_by_3(0b101), 0b1000001u);
+  EXPECT_EQ(spread_bits_by_3(0x1fffff), 0x1249249249249249ull);
+  EXPECT_EQ(spread_bits_by_3(0x200000), 0u) << "only the low 21 bits";
+}
+
+TEST_P(GridMerge, InitialCellsFollowTheMortonOrderOfTheirCorners) {
+  const MergeCase& c = merge_case(GetParam());
+  const Grid grid = build_octree_form_grid(c.scene);
+  const auto key = [](const Cell& cell) {
+    return spread_bits_by_3(std::uint32_t(cell.lo[0])) |
+           spread_bits_by_3(std::uint32_t(cell.lo[1])) << 1 |
+           spread_bits_by_3(std::uint32_t(cell.lo[2])) << 2;
+  };
+  ASSERT_GT(grid.info.num_cells, 1u);
+  for (std::uint32_t id = 1; id < grid.info.num_cells; ++id)
+    ASSERT_LT(key(grid.cells[id - 1]), key(grid.cells[id])) << "cell " << id;
+  // The renumbering kept the map and the lists consistent with the cells.
+  for (std::uint32_t id = 0; id < grid.info.num_cells; ++id) {
+    const Cell& cell = grid.cells[id];
+    ASSERT_EQ(
+        lookup_cell(grid.info, grid.entries.data(), Voxel{cell.lo[0], cell.lo[1], cell.lo[2]}), id);
+  }
+}
+
 TEST_P(GridMerge, MergingTheOctreeFormMapThenCompactingGivesTheSameCells) {
   const MergeCase& c = merge_case(GetParam());
   CpuExecutor exec;

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/build/cell_order.h"
 #include "core/build/octree_levels.h"
 
 namespace irgrid {
@@ -97,6 +98,8 @@ void assemble_grid(Exec& exec, OctreeLevels<Exec>& levels, GridArrays<Exec>& gri
   pairs.tri =
       concatenate<Exec, std::uint32_t>(exec, "concatenate pairs", tri_parts, levels.num_refs);
   tri_parts.clear();
+  order_cells_spatially(exec, grid.info, grid.cells, grid.entries, pairs, levels.num_cells,
+                        levels.num_entries);
   grid.refs = sort_references(exec, pairs, grid.cells.data(), levels.num_cells);
   grid.info.num_cells = levels.num_cells;
   grid.info.num_refs = levels.num_refs;
