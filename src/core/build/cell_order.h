@@ -26,6 +26,14 @@ IRGRID_HD inline std::uint64_t spread_bits_by_3(std::uint64_t x) {
   return x;
 }
 
+/// Morton key of a voxel corner: x, y and z (each shifted right by `drop`, then its low 21 bits)
+/// interleaved, x in bit 0.
+IRGRID_HD inline std::uint64_t morton_key(const std::int32_t corner[3], int drop) {
+  return spread_bits_by_3(std::uint64_t(corner[0]) >> drop) |
+         spread_bits_by_3(std::uint64_t(corner[1]) >> drop) << 1 |
+         spread_bits_by_3(std::uint64_t(corner[2]) >> drop) << 2;
+}
+
 /// Renumbers `cells` (the leaves of all levels, before their reference ranges are set) in the
 /// Morton order of their lower corners, and rewrites what names them: the leaf entries of the
 /// voxel map and the cell of every (cell, triangle) pair. The order depends on the boxes only,
@@ -48,10 +56,7 @@ void order_cells_spatially(Exec& exec, const GridInfo& info,
   std::uint32_t* d_order = order.data();
   const Cell* d_cells = cells.data();
   exec.for_each("cell order keys", num_cells, [=] IRGRID_HD(std::size_t i) {
-    const Cell& c = d_cells[i];
-    d_keys[i] = spread_bits_by_3(std::uint64_t(c.lo[0]) >> drop) |
-                spread_bits_by_3(std::uint64_t(c.lo[1]) >> drop) << 1 |
-                spread_bits_by_3(std::uint64_t(c.lo[2]) >> drop) << 2;
+    d_keys[i] = morton_key(d_cells[i].lo, drop);
     d_order[i] = std::uint32_t(i);
   });
   exec.sort_pairs("cell order sort", d_keys, d_order, num_cells, 3 * (bits - drop));

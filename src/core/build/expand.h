@@ -33,17 +33,18 @@ void expand_axis(Exec& exec, const GridArrays<Exec>& grid, Cell* out, std::uint8
                         growth_quantum};
   const auto down_bit = std::uint8_t(1u << (2 * axis)), up_bit = std::uint8_t(2u << (2 * axis));
   exec.for_each("expand cells", grid.info.num_cells, [=] IRGRID_HD(std::size_t i) {
-    Cell cell = view.cells[i];
+    const Cell snapshot = view.cells[i];
+    Cell cell = snapshot;
     std::uint8_t faces = can_grow[i];
     // Both directions read the snapshot box; the two slabs are disjoint and each is safe on its
     // own, so their union is too.
     if (faces & up_bit) {
-      const FaceGrowth up = face_growth(view, cell, axis, +1);
+      const FaceGrowth up = face_growth(view, snapshot, axis, +1);
       cell.hi[axis] += up.voxels;
       if (!up.may_grow_further) faces = std::uint8_t(faces & ~up_bit);
     }
     if (faces & down_bit) {
-      const FaceGrowth down = face_growth(view, view.cells[i], axis, -1);
+      const FaceGrowth down = face_growth(view, snapshot, axis, -1);
       cell.lo[axis] -= down.voxels;
       if (!down.may_grow_further) faces = std::uint8_t(faces & ~down_bit);
     }
