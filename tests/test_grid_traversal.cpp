@@ -202,25 +202,37 @@ TEST(GridTraversal, InterleavedWalksEqualSingleWalks) {
   });
 }
 
-TEST(GridTraversal, SimdWalksEqualSingleWalks) {
-  if (!simd_walk_supported(GridInfo{})) GTEST_SKIP() << "this CPU has no AVX2";
-  // Both cell layouts: the full cells of the build, and the compressed ones.
+// The SIMD walk of `kIsa` against single walks, with both cell layouts: the full cells of the
+// build, and the compressed ones.
+template <SimdIsa kIsa>
+void expect_simd_walks_equal_single_walks() {
   for_adversarial_ray_sets([](const auto& grid, const auto& rays, const std::string& what) {
-    ASSERT_TRUE(simd_walk_supported(grid.info));
+    ASSERT_TRUE(simd_walk_fits(grid.info));
     const GridView view = grid_view(grid, nullptr);
-    expect_walk_equals_single<Query::closest, Cell>(trace_simd_lanes<Query::closest, Cell>, view,
-                                                    rays, what);
-    expect_walk_equals_single<Query::any, Cell>(trace_simd_lanes<Query::any, Cell>, view, rays,
-                                                what);
+    expect_walk_equals_single<Query::closest, Cell>(trace_simd_lanes<kIsa, Query::closest, Cell>,
+                                                    view, rays, what);
+    expect_walk_equals_single<Query::any, Cell>(trace_simd_lanes<kIsa, Query::any, Cell>, view,
+                                                rays, what);
     CpuExecutor exec;
     CpuExecutor::Buffer<CompactCell> compact;
     compress_cells(exec, grid, compact);
     const GridView compact_view = grid_view(grid, compact.data());
     expect_walk_equals_single<Query::closest, CompactCell>(
-        trace_simd_lanes<Query::closest, CompactCell>, compact_view, rays, what + ", compressed");
-    expect_walk_equals_single<Query::any, CompactCell>(trace_simd_lanes<Query::any, CompactCell>,
-                                                       compact_view, rays, what + ", compressed");
+        trace_simd_lanes<kIsa, Query::closest, CompactCell>, compact_view, rays,
+        what + ", compressed");
+    expect_walk_equals_single<Query::any, CompactCell>(
+        trace_simd_lanes<kIsa, Query::any, CompactCell>, compact_view, rays, what + ", compressed");
   });
+}
+
+TEST(GridTraversal, SimdWalksEqualSingleWalks) {
+  if (!cpu_has(SimdIsa::avx2)) GTEST_SKIP() << "this CPU has no AVX2";
+  expect_simd_walks_equal_single_walks<SimdIsa::avx2>();
+}
+
+TEST(GridTraversal, Avx512WalksEqualSingleWalks) {
+  if (!cpu_has(SimdIsa::avx512)) GTEST_SKIP() << "this CPU has no AVX-512";
+  expect_simd_walks_equal_single_walks<SimdIsa::avx512>();
 }
 
 TEST(WalkPolicy, CameraRaysAreCoherentRandomRaysAreNot) {

@@ -1,9 +1,11 @@
 // cpu/walk_policy.h: how the CPU backend walks a chunk of rays: in SIMD lanes, one at a time,
 // or interleaved.
 //
-// Where the CPU has AVX2, every chunk walks in SIMD lanes (cpu/simd_walk.h): on the 2-core
-// development VM it beat the other two ways on every ray kind of Sponza and Conference
-// (docs/benchmarks.md, third 2026-12-02 session). Elsewhere the choice is between the other two.
+// Where the CPU has AVX2, every chunk walks in SIMD lanes (cpu/simd_walk.h), 16 of them where it
+// has AVX-512: on the 2-core development VM the 8-lane walk beat the other two ways on every ray
+// kind of Sponza and Conference (docs/benchmarks.md, third 2026-12-02 session), and 16 lanes beat
+// 8 on every ray kind of Sponza, Conference and Crown (sixth 2026-12-02 session). Elsewhere the
+// choice is between the other two.
 // Interleaving (cpu/interleaved_walk.h) overlaps the cache misses of different rays, at the
 // price of bookkeeping: about 14% more time with a single lane on Sponza's primary rays. It pays
 // where the rays miss the caches: incoherent rays, and any rays on a grid far larger than the
@@ -19,6 +21,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <span>
+#include <tuple>
 
 #include "core/grid/traverse.h"
 #include "cpu/interleaved_walk.h"
@@ -56,21 +59,32 @@ inline bool rays_are_coherent(const GridInfo& info, std::span<const Ray> rays) {
   return 4 * coherent >= 3 * sampled;
 }
 
-/// The ways of walking a chunk of rays. The default is the SIMD walk where the CPU has AVX2,
-/// and the choice by coherence and grid size otherwise; the environment variable
-/// IRGRID_CPU_WALK=simd|single|interleaved forces one, to compare them (the hits are the same).
-enum class CpuWalk { simd, one_by_one, interleaved };
+/// The ways of walking a chunk of rays. The default is the SIMD walk of the widest instruction
+/// set the CPU has (AVX-512, then AVX2), and the choice by coherence and grid size where it has
+/// neither; the environment variable IRGRID_CPU_WALK=simd|avx512|avx2|single|interleaved forces
+/// one, to compare them (the hits are the same).
+enum class CpuWalk { simd, avx512, avx2, one_by_one, interleaved };
 
 /// The walk IRGRID_CPU_WALK asks for (read once), or CpuWalk::simd when it is unset; an
-/// unknown value is ignored with a warning on stderr.
+/// unknown value, or an instruction set this CPU lacks, is ignored with a warning on stderr.
 inline CpuWalk cpu_walk_choice() {
   static const CpuWalk choice = [] {
     const char* value = std::getenv("IRGRID_CPU_WALK");
     if (value == nullptr || !std::strcmp(value, "simd")) return CpuWalk::simd;
     if (!std::strcmp(value, "single")) return CpuWalk::one_by_one;
     if (!std::strcmp(value, "interleaved")) return CpuWalk::interleaved;
-    std::fprintf(
-        stderr, "warning: IRGRID_CPU_WALK=%s is not simd, single or interleaved; ignored\n", value);
+    for (const auto& [name, walk, isa] : {std::tuple{"avx512", CpuWalk::avx512, SimdIsa::avx512},
+                                          std::tuple{"avx2", CpuWalk::avx2, SimdIsa::avx2}}) {
+      if (std::strcmp(value, name)) continue;
+      if (cpu_has(isa)) return walk;
+      std::fprintf(stderr, "warning: IRGRID_CPU_WALK=%s: this CPU has no %s; ignored\n", value,
+                   name);
+      return CpuWalk::simd;
+    }
+    std::fprintf(stderr,
+                 "warning: IRGRID_CPU_WALK=%s is not simd, avx512, avx2, single or interleaved; "
+                 "ignored\n",
+                 value);
     return CpuWalk::simd;
   }();
   return choice;
@@ -96,10 +110,16 @@ void trace_one_by_one(const GridView& grid, std::span<const Ray> rays, std::span
 template <Query kQuery, typename CellT>
 void trace_chunk(const GridView& grid, std::size_t grid_bytes, std::span<const Ray> rays,
                  std::span<Hit> hits, std::span<RayWork> work) {
+  const bool simd_fits = simd_walk_fits(grid.info);
   switch (cpu_walk_choice()) {
     case CpuWalk::simd:
-      if (simd_walk_supported(grid.info))
-        return trace_simd_lanes<kQuery, CellT>(grid, rays, hits, work);
+    case CpuWalk::avx512:
+      if (simd_fits && cpu_has(SimdIsa::avx512))
+        return trace_simd_lanes<SimdIsa::avx512, kQuery, CellT>(grid, rays, hits, work);
+      [[fallthrough]];
+    case CpuWalk::avx2:
+      if (simd_fits && cpu_has(SimdIsa::avx2))
+        return trace_simd_lanes<SimdIsa::avx2, kQuery, CellT>(grid, rays, hits, work);
       break;
     case CpuWalk::one_by_one:
       return trace_one_by_one<kQuery, CellT>(grid, rays, hits, work);

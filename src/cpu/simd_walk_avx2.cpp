@@ -1,0 +1,52 @@
+// cpu/simd_walk_avx2.cpp: the SIMD walk of cpu/simd_walk.h in the 8 lanes of AVX2.
+//
+// Only the code below the pragma is compiled for avx2; it runs only where cpu_has() says the
+// CPU has it. Every header the walk uses is included above the pragma, so that their inline
+// functions stay baseline code (one copy of each is kept for the whole program).
+#include <immintrin.h>
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <span>
+
+#include "core/grid/traverse.h"
+#include "cpu/simd_walk.h"
+#include "irgrid/accelerator.h"
+
+#pragma GCC push_options
+#pragma GCC target("avx2")
+
+#include "cpu/simd_lanes_avx2.h"
+#include "cpu/simd_walk_lanes.h"
+
+namespace irgrid {
+
+template <SimdIsa kIsa, Query kQuery, typename CellT>
+void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span<Hit> hits,
+                      std::span<RayWork> work) {
+  static_assert(kIsa == SimdIsa::avx2);
+  simd::LaneWalk<simd::Avx2Lanes, kSimdWalkGroups>::template trace<kQuery, CellT>(grid, rays, hits,
+                                                                                  work);
+}
+
+template void trace_simd_lanes<SimdIsa::avx2, Query::closest, Cell>(const GridView&,
+                                                                    std::span<const Ray>,
+                                                                    std::span<Hit>,
+                                                                    std::span<RayWork>);
+template void trace_simd_lanes<SimdIsa::avx2, Query::any, Cell>(const GridView&,
+                                                                std::span<const Ray>,
+                                                                std::span<Hit>, std::span<RayWork>);
+template void trace_simd_lanes<SimdIsa::avx2, Query::closest, CompactCell>(const GridView&,
+                                                                           std::span<const Ray>,
+                                                                           std::span<Hit>,
+                                                                           std::span<RayWork>);
+template void trace_simd_lanes<SimdIsa::avx2, Query::any, CompactCell>(const GridView&,
+                                                                       std::span<const Ray>,
+                                                                       std::span<Hit>,
+                                                                       std::span<RayWork>);
+
+}  // namespace irgrid
+
+#pragma GCC pop_options

@@ -1,0 +1,589 @@
+// cpu/simd_walk_lanes.h: the SIMD walk of cpu/simd_walk.h, written once over the lane
+// operations V of an instruction set (cpu/simd_lanes_avx2.h: 8 lanes, cpu/simd_lanes_avx512.h:
+// 16 lanes). Each instruction set's file includes this after its target pragma and instantiates
+// it with its V, so every function here is compiled for that instruction set alone.
+//
+// Every lane-wise operation below mirrors one line of core/grid/traverse.h or core/watertight.h
+// with the same float operations in the same order (no FMA: -ffp-contract=off), and V::min /
+// V::max return their second operand on NaN exactly as min_fast(a, b) = a < b ? a : b does.
+#pragma once
+
+#include <immintrin.h>
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <span>
+
+#include "core/grid/traverse.h"
+#include "irgrid/accelerator.h"
+
+namespace irgrid::simd {
+
+/// The walk of groups of V::kLanes rays, one per lane, kGroups groups per thread.
+template <class V, int kGroups>
+struct LaneWalk {
+  static constexpr int L = V::kLanes;
+  static constexpr int G = kGroups;
+  using F = typename V::F;
+  using I = typename V::I;
+  using M = typename V::M;
+
+  template <int kPredicate>
+  static M compare(F a, F b) {
+    return V::template compare<kPredicate>(a, b);
+  }
+
+  /// The walks' per-ray values, one array slot per lane (structure of arrays). Every member is
+  /// a row of L 4-byte values, so a lane moves as a column (copy_lane).
+  struct alignas(64) Lanes {
+    float org[3][L];               // WalkRay::org
+    float dir[3][L];               // WalkRay::dir
+    float t_per_voxel[3][L];       // WalkRay::t_per_voxel
+    float t_at_plane0[3][L];       // WalkRay::t_at_plane0
+    std::int32_t ascending[3][L];  // WalkRay::ascending, as -1 (true) or 0
+    std::int32_t voxel[3][L];      // GridWalk::voxel
+    float t_leave[L];
+    float best_t[L], best_u[L], best_v[L];  // GridWalk::best
+    std::int32_t best_prim[L];
+    float org_k[3][L];        // WatertightRay::org_k
+    float shear[3][L];        // WatertightRay::sx, sy, sz
+    float tmin[L], tmax[L];   // WatertightRay::tmin, tmax
+    std::int32_t axis[3][L];  // WatertightRay::kx, ky, kz
+  };
+  static constexpr std::size_t kLaneRows = sizeof(Lanes) / (4 * L);
+  static_assert(sizeof(Lanes) == kLaneRows * 4 * L, "Lanes holds rows of L 4-byte values only");
+
+  /// Copies the walk in slot `from_lane` of `from` into lane `lane` of `to`.
+  static void copy_lane(Lanes& to, int lane, const Lanes& from, int from_lane) {
+    auto* t = reinterpret_cast<unsigned char*>(&to);
+    const auto* f = reinterpret_cast<const unsigned char*>(&from);
+#pragma GCC unroll 64
+    for (std::size_t row = 0; row < kLaneRows; ++row)
+      std::memcpy(t + (row * L + lane) * 4, f + (row * L + from_lane) * 4, 4);
+  }
+
+  /// The cell each lane is in, per round.
+  struct alignas(64) LaneCells {
+    std::int32_t lo[3][L], hi[3][L];  // exit box
+    std::int32_t begin[L], end[L];    // references
+  };
+
+  /// Per lane: v[k] for k in 0..2.
+  static F pick(const F v[3], I k) {
+    return V::select(V::equal(k, V::splat(2)), V::select(V::equal(k, V::splat(1)), v[0], v[1]),
+                     v[2]);
+  }
+
+  /// walk_position, lane-wise: the walk position at t on axis a, in voxels.
+  static F walk_position(const GridInfo& info, int a, F walk_org, F walk_dir, F t) {
+    return V::add(walk_org, V::mul(V::mul(t, walk_dir), V::splat(info.inv_voxel_size[a])));
+  }
+  /// voxel_at, lane-wise: the voxel holding position p on axis a, clamped to the grid.
+  static I voxel_at(const GridInfo& info, int a, F p) {
+    return V::truncate(V::min(V::max(p, V::splat(0.f)), V::splat(float(info.virtual_dims[a] - 1))));
+  }
+
+  /// begin_walk, lane-wise, for the lanes of `starting`: lane l begins rays[l] (read with
+  /// gathers). Writes the walks into s and returns the lanes whose ray enters the grid (where
+  /// begin_walk returns true); the other lanes of s hold no walk.
+  static M begin_walks(const GridInfo& info, const Ray* rays, Lanes& s, M starting) {
+    static_assert(sizeof(Ray) == 8 * sizeof(float), "rays are read as 8 floats each");
+    const float* base = &rays[0].org[0];
+    const I field = V::template shift_left<3>(V::lane_index());
+    const auto read = [&](int f) { return V::gather(base, V::add(field, V::splat(f)), starting); };
+    const F org[3] = {read(0), read(1), read(2)}, tmin = read(3);
+    const F dir[3] = {read(4), read(5), read(6)}, tmax = read(7);
+    const F zero = V::splat(0.f), one = V::splat(1.f), infinity = V::splat(INFINITY);
+    F inv_dir[3];
+    for (int a = 0; a < 3; ++a)
+      inv_dir[a] = V::div(one, dir[a]);
+    // clip_to_grid
+    F t_enter = tmin, t_leave = tmax;
+    for (int a = 0; a < 3; ++a) {
+      const F lo = V::splat(info.box_lo[a]), hi = V::splat(info.box_hi[a]);
+      const M flat = compare<_CMP_EQ_OQ>(dir[a], zero);
+      const M outside = V::either(compare<_CMP_LT_OQ>(org[a], lo), compare<_CMP_GT_OQ>(org[a], hi));
+      const F t0 = V::mul(V::sub(lo, org[a]), inv_dir[a]);
+      const F t1 = V::mul(V::sub(hi, org[a]), inv_dir[a]);
+      const M swap = compare<_CMP_GT_OQ>(t0, t1);
+      const F near = V::select(swap, t0, t1), far = V::select(swap, t1, t0);
+      const M missed = V::both(flat, outside);
+      t_enter = V::select(flat, V::max(near, t_enter), V::select(missed, t_enter, one));
+      t_leave = V::select(flat, V::min(far, t_leave), V::select(missed, t_leave, zero));
+    }
+    const M enters = V::both(starting, compare<_CMP_LE_OQ>(t_enter, t_leave));
+    // make_watertight_ray
+    F magnitude[3];
+    for (int a = 0; a < 3; ++a)
+      magnitude[a] = V::select(compare<_CMP_LT_OQ>(dir[a], zero), dir[a], V::sub(zero, dir[a]));
+    const M x_largest = V::both(compare<_CMP_GE_OQ>(magnitude[0], magnitude[1]),
+                                compare<_CMP_GE_OQ>(magnitude[0], magnitude[2]));
+    const M y_over_z = compare<_CMP_GE_OQ>(magnitude[1], magnitude[2]);
+    const I c0 = V::splat(0), c1 = V::splat(1), c2 = V::splat(2);
+    const I kz = V::select(x_largest, V::select(y_over_z, c2, c1), c0);
+    const I kx0 = V::select(V::equal(kz, c2), V::add(kz, c1), c0);
+    const I ky0 = V::select(V::equal(kx0, c2), V::add(kx0, c1), c0);
+    const F dir_z = pick(dir, kz);
+    const M flip = compare<_CMP_LT_OQ>(dir_z, zero);
+    const I kx = V::select(flip, kx0, ky0), ky = V::select(flip, ky0, kx0);
+    const F shear[3] = {V::div(pick(dir, kx), dir_z), V::div(pick(dir, ky), dir_z),
+                        V::div(one, dir_z)};
+    const I axis[3] = {kx, ky, kz};
+    for (int k = 0; k < 3; ++k) {
+      V::store(s.org_k[k], pick(org, axis[k]));
+      V::store(s.shear[k], shear[k]);
+      V::store(s.axis[k], axis[k]);
+    }
+    V::store(s.tmin, tmin);
+    V::store(s.tmax, tmax);
+    V::store(s.t_leave, t_leave);
+    V::store(s.best_t, tmax);
+    V::store(s.best_u, zero);
+    V::store(s.best_v, zero);
+    V::store(s.best_prim, V::splat(std::int32_t(kNoHit)));
+    // make_walk_ray, then the entry voxel
+    for (int a = 0; a < 3; ++a) {
+      const F walk_org =
+          V::mul(V::sub(org[a], V::splat(info.box_lo[a])), V::splat(info.inv_voxel_size[a]));
+      const F t_per_voxel = V::mul(V::splat(info.voxel_size[a]), inv_dir[a]);
+      const F t_at_plane0 = V::mul(V::sub(V::splat(info.box_lo[a]), org[a]), inv_dir[a]);
+      const F minus_infinity = V::splat(-INFINITY);
+      const auto finite = [&](F v) {
+        return V::both(compare<_CMP_GT_OQ>(v, minus_infinity), compare<_CMP_LT_OQ>(v, infinity));
+      };
+      const M flat_axis = info.inv_voxel_size[a] == 0.f ? V::all_lanes() : V::no_lanes();
+      const M parallel =
+          V::either(V::either(compare<_CMP_EQ_OQ>(dir[a], zero), flat_axis),
+                    V::but_not(V::both(finite(t_per_voxel), finite(t_at_plane0)), V::all_lanes()));
+      const F walk_dir = V::select(parallel, dir[a], zero);
+      V::store(s.org[a], walk_org);
+      V::store(s.dir[a], walk_dir);
+      V::store(s.t_per_voxel[a], V::select(parallel, t_per_voxel, zero));
+      V::store(s.t_at_plane0[a], V::select(parallel, t_at_plane0, infinity));
+      V::store(s.ascending[a], V::as_int(compare<_CMP_NLT_UQ>(walk_dir, zero)));
+      const F position = V::select(compare<_CMP_EQ_OQ>(walk_dir, zero),
+                                   walk_position(info, a, walk_org, walk_dir, t_enter), walk_org);
+      V::store(s.voxel[a], voxel_at(info, a, position));
+    }
+    return enters;
+  }
+
+  /// Field `kOffset` (in bytes) of the structs of `kStride` bytes at `base`, for the cells
+  /// `index` of the lanes of `mask` (0 elsewhere).
+  template <int kOffset, int kStride>
+  static I gather_field(const void* base, I index, M mask) {
+    static_assert(kStride % 8 == 0, "gathers scale indices by at most 8");
+    const void* field = static_cast<const char*>(base) + kOffset;
+    const I scaled = V::mul(index, V::splat(kStride / 8));
+    return V::template gather<8>(V::splat(0), field, scaled, mask);
+  }
+
+  /// load_cell, lane-wise: the cells `index` of the lanes of `mask` into c.
+  static void load_cells(const Cell* cells, I index, M mask, LaneCells& c) {
+    static_assert(offsetof(Cell, begin) == 12 && offsetof(Cell, hi) == 16 &&
+                  offsetof(Cell, end) == 28 && sizeof(Cell) == 32);
+    V::store(c.lo[0], gather_field<0, 32>(cells, index, mask));
+    V::store(c.lo[1], gather_field<4, 32>(cells, index, mask));
+    V::store(c.lo[2], gather_field<8, 32>(cells, index, mask));
+    V::store(c.begin, gather_field<12, 32>(cells, index, mask));
+    V::store(c.hi[0], gather_field<16, 32>(cells, index, mask));
+    V::store(c.hi[1], gather_field<20, 32>(cells, index, mask));
+    V::store(c.hi[2], gather_field<24, 32>(cells, index, mask));
+    V::store(c.end, gather_field<28, 32>(cells, index, mask));
+  }
+  static void load_cells(const CompactCell* cells, I index, M mask, LaneCells& c) {
+    static_assert(offsetof(CompactCell, hi) == 6 && offsetof(CompactCell, begin) == 12 &&
+                  sizeof(CompactCell) == 16);
+    const I low16 = V::splat(0xffff);
+    const I lo01 = gather_field<0, 16>(cells, index, mask);  // lo[0], lo[1]
+    const I lo2hi0 = gather_field<4, 16>(cells, index, mask);
+    const I hi12 = gather_field<8, 16>(cells, index, mask);
+    V::store(c.lo[0], V::bit_and(lo01, low16));
+    V::store(c.lo[1], V::template shift_right_logical<16>(lo01));
+    V::store(c.lo[2], V::bit_and(lo2hi0, low16));
+    V::store(c.hi[0], V::template shift_right_logical<16>(lo2hi0));
+    V::store(c.hi[1], V::bit_and(hi12, low16));
+    V::store(c.hi[2], V::template shift_right_logical<16>(hi12));
+    V::store(c.begin, gather_field<12, 16>(cells, index, mask));
+    V::store(c.end, gather_field<16 + 12, 16>(cells, index, mask));  // the next cell's begin
+  }
+
+  /// cell_exit, lane-wise: the far plane and its t per axis, and the nearest t capped at
+  /// t_leave.
+  struct LaneExit {
+    I far[3];
+    F t_axis[3];
+    F t_exit;
+  };
+
+  static LaneExit cell_exits(const Lanes& s, const LaneCells& c) {
+    LaneExit e;
+    e.t_exit = V::load(s.t_leave);
+    for (int a = 0; a < 3; ++a) {
+      e.far[a] = V::select(V::as_mask(V::load(s.ascending[a])), V::load(c.lo[a]), V::load(c.hi[a]));
+      e.t_axis[a] = V::add(V::mul(V::to_float(e.far[a]), V::load(s.t_per_voxel[a])),
+                           V::load(s.t_at_plane0[a]));
+      e.t_exit = V::min(e.t_axis[a], e.t_exit);
+    }
+    return e;
+  }
+
+  /// The triangle tests of one round, packed from the cells of all lanes, each lane's in its
+  /// reference order: test p is triangle prim[p] against the ray of lane lane[p]. They run in
+  /// batches of L.
+  struct alignas(64) TestList {
+    static constexpr int kCapacity = 16 * L;
+    // Appends write whole rows of L, so each array has L slots of slack; slots past `size`
+    // stay valid lanes for the permutes.
+    std::int32_t lane[kCapacity + L] = {};
+    std::uint32_t prim[kCapacity + L] = {};
+    std::int32_t ordinal[kCapacity + L];  // the test's place among its cell's references
+    int size = 0;
+
+    /// Appends the tests of lane `l` against refs[k] for k < count (count <= L and <= the room
+    /// left), with ordinals from `ordinal0`: one masked row, no branch.
+    void append_row(int l, const std::uint32_t* refs, int count, int ordinal0) {
+      const I slot = V::lane_index();
+      const I ids = V::load_lanes(refs, V::greater(V::splat(count), slot));  // no overread
+      V::store_unaligned(reinterpret_cast<std::int32_t*>(prim + size), ids);
+      V::store_unaligned(lane + size, V::splat(l));
+      V::store_unaligned(ordinal + size, V::add(slot, V::splat(ordinal0)));
+      size += count;
+    }
+    /// append_row for any count <= the room left.
+    void append(int l, const std::uint32_t* refs, int count, int ordinal0) {
+      for (int j = 0; j < count; j += L)
+        append_row(l, refs + j, count - j < L ? count - j : L, ordinal0 + j);
+    }
+  };
+  static_assert(TestList::kCapacity >= L * L, "L cells of at most L references each fit the list");
+
+  /// What the lane-wise triangle test found for a batch of tests, bit p for test first + p.
+  struct alignas(64) BatchHits {
+    float t[L], u[L], v[L];  // where `hits` has the bit: intersect_watertight's hit
+    std::uint32_t hits;      // intersect_watertight returns true
+    std::uint32_t scalar;    // left to the scalar test (an edge function is zero, or not a number)
+  };
+
+  /// intersect_watertight, lane-wise, for tests first + p (p < count <= L, first a multiple of
+  /// it) of `tests`, against the rays of their lanes, with the same operations in the same
+  /// order. Tests whose edge functions are not all nonzero numbers are left to the scalar test
+  /// (its double-precision redo of zero edge functions).
+  static void test_triangles(const GridView& grid, const Lanes& s, const TestList& tests, int first,
+                             int count, BatchHits& out) {
+    const M slots = V::lanes((1u << count) - 1);
+    const float* coords = &grid.triangles[0].p0.x;
+    const I lane = V::load(tests.lane + first);
+    const I prim = V::load(reinterpret_cast<const std::int32_t*>(tests.prim + first));
+    const I base = V::add(V::template shift_left<3>(prim), prim);  // 9 floats each
+    // Each test takes its lane's ray constants.
+    const auto ray_int = [&](const std::int32_t* v) { return V::permute(V::load(v), lane); };
+    const auto ray_float = [&](const float* v) { return V::permute(V::load(v), lane); };
+    const I kx = ray_int(s.axis[0]), ky = ray_int(s.axis[1]), kz = ray_int(s.axis[2]);
+    const F ox = ray_float(s.org_k[0]), oy = ray_float(s.org_k[1]), oz = ray_float(s.org_k[2]);
+    const F sx = ray_float(s.shear[0]), sy = ray_float(s.shear[1]), sz = ray_float(s.shear[2]);
+    F x[3], y[3], z[3];
+    for (int j = 0; j < 3; ++j) {  // shear_vertex for p0, p1, p2
+      const I vertex = V::add(base, V::splat(3 * j));
+      const F px = V::gather(coords, V::add(vertex, kx), slots);
+      const F py = V::gather(coords, V::add(vertex, ky), slots);
+      const F pz = V::sub(V::gather(coords, V::add(vertex, kz), slots), oz);
+      x[j] = V::sub(V::sub(px, ox), V::mul(sx, pz));
+      y[j] = V::sub(V::sub(py, oy), V::mul(sy, pz));
+      z[j] = V::mul(sz, pz);
+    }
+    // a = p0, b = p1, c = p2: u = c_x b_y - c_y b_x, v = a_x c_y - a_y c_x, w = b_x a_y - b_y a_x.
+    const F u = V::sub(V::mul(x[2], y[1]), V::mul(y[2], x[1]));
+    const F v = V::sub(V::mul(x[0], y[2]), V::mul(y[0], x[2]));
+    const F w = V::sub(V::mul(x[1], y[0]), V::mul(y[1], x[0]));
+    const F zero = V::splat(0.f);
+    const M negative =
+        V::either(V::either(compare<_CMP_LT_OQ>(u, zero), compare<_CMP_LT_OQ>(v, zero)),
+                  compare<_CMP_LT_OQ>(w, zero));
+    const M positive =
+        V::either(V::either(compare<_CMP_GT_OQ>(u, zero), compare<_CMP_GT_OQ>(v, zero)),
+                  compare<_CMP_GT_OQ>(w, zero));
+    const M numbers = V::both(compare<_CMP_ORD_Q>(u, v), compare<_CMP_ORD_Q>(w, w));
+    const M some_zero =
+        V::either(V::either(compare<_CMP_EQ_OQ>(u, zero), compare<_CMP_EQ_OQ>(v, zero)),
+                  compare<_CMP_EQ_OQ>(w, zero));
+    // Mixed nonzero signs: a miss whatever the double redo would make of a zero.
+    const M missed = V::both(V::both(negative, positive), numbers);
+    const M scalar = V::but_not(missed, V::either(some_zero, V::but_not(numbers, V::all_lanes())));
+    const F det = V::add(V::add(u, v), w);
+    const F t_scaled = V::add(V::add(V::mul(u, z[0]), V::mul(v, z[1])), V::mul(w, z[2]));
+    const F inv_det = V::div(V::splat(1.f), det);
+    const F t = V::mul(t_scaled, inv_det);
+    const M in_range = V::both(
+        V::both(compare<_CMP_GE_OQ>(t, ray_float(s.tmin)),
+                compare<_CMP_LE_OQ>(t, ray_float(s.tmax))),
+        V::both(compare<_CMP_LT_OQ>(t, V::splat(INFINITY)), compare<_CMP_NEQ_UQ>(det, zero)));
+    const M hit = V::but_not(V::either(missed, scalar), in_range);
+    V::store(out.t, t);
+    V::store(out.u, V::mul(v, inv_det));
+    V::store(out.v, V::mul(w, inv_det));
+    out.hits = V::bits(V::both(slots, hit));
+    out.scalar = V::bits(V::both(slots, scalar));
+  }
+
+  /// step_past_cell, lane-wise, for lanes whose walk goes on; returns the lanes whose walk ends
+  /// (the closest hit lies within the cell, or the ray leaves the grid).
+  static M step_lanes(const GridInfo& info, Lanes& s, const LaneExit& e) {
+    const F best_t = V::load(s.best_t);
+    const M has_hit =
+        V::but_not(V::equal(V::load(s.best_prim), V::splat(std::int32_t(kNoHit))), V::all_lanes());
+    M ends = V::both(has_hit, compare<_CMP_LE_OQ>(best_t, e.t_exit));
+    ends = V::either(ends, compare<_CMP_NLT_UQ>(e.t_exit, V::load(s.t_leave)));
+    M outside = V::no_lanes();
+    const I minus_one = V::splat(-1);
+    for (int a = 0; a < 3; ++a) {
+      const M up = V::as_mask(V::load(s.ascending[a]));
+      const M is_exit = compare<_CMP_EQ_OQ>(e.t_axis[a], e.t_exit);
+      const I far = e.far[a], far_below = V::add(far, minus_one);
+      const I dims = V::splat(info.virtual_dims[a]);
+      // The exit axis: past the far plane; outside the grid when not in [0, dims).
+      const I jumped = V::select(up, far_below, far);
+      // The other axes: voxel_at(walk_position(t_exit)), kept within the cell and never back.
+      const I v =
+          voxel_at(info, a, walk_position(info, a, V::load(s.org[a]), V::load(s.dir[a]), e.t_exit));
+      const I at = V::load(s.voxel[a]);
+      const I up_v =
+          V::select(V::greater(at, v), V::select(V::greater(v, far_below), v, far_below), at);
+      const I down_v = V::select(V::greater(v, at), V::select(V::greater(far, v), v, far), at);
+      const I followed = V::select(up, down_v, up_v);
+      V::store(s.voxel[a], V::select(is_exit, followed, jumped));
+      const M in_grid = V::both(V::greater(jumped, minus_one), V::greater(dims, jumped));
+      outside = V::either(outside, V::but_not(in_grid, is_exit));
+    }
+    return V::either(ends, outside);
+  }
+
+  /// One set of L walks in flight, with the cells and tests of its current round.
+  struct alignas(64) Group {
+    Lanes s{};
+    LaneCells c{};
+    TestList list;
+    std::int32_t cells_visited[L] = {}, triangles_tested[L] = {};  // TraversalCounters
+    std::uint32_t ray_of[L] = {};
+    std::uint32_t active = 0;     // lanes with a walk
+    std::uint32_t hit_lanes = 0;  // any hit: lanes that found one this round
+  };
+
+  /// The cell of each active lane's voxel (lookup_cell, lane-wise), for every group: one gather
+  /// per map level, then the cell's fields. The groups descend together, so that the gathers
+  /// of one group wait for memory while the others' are in flight too.
+  template <typename CellT>
+  static void find_cells(const GridView& grid, const CellT* cells, Group (&groups)[G]) {
+    const GridInfo& info = grid.info;
+    const I zero = V::splat(0), one = V::splat(1);
+    const I target_bits = V::splat(std::int32_t(kMaxEntryTarget));
+    I v[G][3], entry[G], level_shift[G];
+    M inner[G];
+    for (int g = 0; g < G; ++g) {
+      const M active = V::lanes(groups[g].active);
+      for (int a = 0; a < 3; ++a)
+        v[g][a] = V::load(groups[g].s.voxel[a]);
+      const I top_x = V::shift_right(v[g][0], info.shift);
+      const I top_y = V::shift_right(v[g][1], info.shift);
+      const I top_z = V::shift_right(v[g][2], info.shift);
+      const I top = V::add(V::mul(V::add(V::mul(top_z, V::splat(info.top_dims[1])), top_y),
+                                  V::splat(info.top_dims[0])),
+                           top_x);
+      entry[g] = V::template gather<4>(zero, grid.entries, top, active);
+      level_shift[g] = V::splat(info.shift);
+      inner[g] = V::both(active, V::greater(V::template shift_right_logical<30>(entry[g]), zero));
+    }
+    for (bool descending = true; descending;) {
+      descending = false;
+      for (int g = 0; g < G; ++g) {
+        if (!V::any(inner[g])) continue;
+        descending = true;
+        const I k = V::template shift_right_logical<30>(entry[g]);  // 0 in leaf and idle lanes
+        const I mask = V::sub(V::shift_left(one, k), one);
+        level_shift[g] = V::sub(level_shift[g], k);
+        const I cx = V::bit_and(V::shift_right(v[g][0], level_shift[g]), mask);
+        const I cy = V::bit_and(V::shift_right(v[g][1], level_shift[g]), mask);
+        const I cz = V::bit_and(V::shift_right(v[g][2], level_shift[g]), mask);
+        const I child = V::bit_or(V::shift_left(V::bit_or(V::shift_left(cz, k), cy), k), cx);
+        const I index = V::add(V::bit_and(entry[g], target_bits), child);
+        entry[g] = V::template gather<4>(entry[g], grid.entries, index, inner[g]);
+        inner[g] =
+            V::both(inner[g], V::greater(V::template shift_right_logical<30>(entry[g]), zero));
+      }
+    }
+    for (int g = 0; g < G; ++g)
+      load_cells(cells, V::bit_and(entry[g], target_bits), V::lanes(groups[g].active), groups[g].c);
+  }
+
+  /// trace_simd_lanes of cpu/simd_walk.h.
+  template <Query kQuery, typename CellT>
+  static void trace(const GridView& grid, std::span<const Ray> rays, std::span<Hit> hits,
+                    std::span<RayWork> work) {
+    const CellT* cells = cell_array<CellT>(grid);
+    const TriangleVertices* triangles = grid.triangles;
+    const bool counted = !work.empty();
+    Group groups[G];
+    Lanes staged{};  // walks begun ahead, L rays at a time
+    std::uint32_t staged_ray[L];
+    std::uint32_t staged_ready = 0;  // slots of `staged` whose ray enters the grid, not yet taken
+    std::size_t next = 0;
+    // Gives the lanes of `idle` in `group` the next rays that enter the grid; rays that miss it
+    // are answered at once. Returns the lanes that got one.
+    const auto start = [&](Group& group, std::uint32_t idle) {
+      std::uint32_t started = 0;
+      while (idle != 0) {
+        if (staged_ready == 0) {
+          if (next == rays.size()) break;
+          const std::size_t count = rays.size() - next < L ? rays.size() - next : L;
+          const std::uint32_t starting = (1u << count) - 1;
+          staged_ready =
+              V::bits(begin_walks(grid.info, rays.data() + next, staged, V::lanes(starting)));
+          for (std::uint32_t slot = 0; slot < count; ++slot) {
+            staged_ray[slot] = std::uint32_t(next + slot);
+            if (staged_ready >> slot & 1) continue;
+            hits[next + slot] = Hit{};
+            if (counted) work[next + slot] = {};
+          }
+          next += count;
+          continue;
+        }
+        const int l = __builtin_ctz(idle), slot = __builtin_ctz(staged_ready);
+        copy_lane(group.s, l, staged, slot);
+        group.ray_of[l] = staged_ray[slot];
+        group.cells_visited[l] = group.triangles_tested[l] = 0;
+        started |= 1u << l;
+        idle &= idle - 1;
+        staged_ready &= staged_ready - 1;
+      }
+      return started;
+    };
+    // Runs the listed tests of `group` and keeps each lane's closest (or any) hit.
+    const auto run_tests = [&](Group& group) {
+      Lanes& s = group.s;
+      TestList& list = group.list;
+      BatchHits batch;
+      for (int first = 0; first < list.size; first += L) {
+        const int count = list.size - first < L ? list.size - first : L;
+        test_triangles(grid, s, list, first, count, batch);
+        // Only the tests that hit, or need the scalar test, are looked at one by one, in order.
+        for (std::uint32_t bits = batch.hits | batch.scalar; bits != 0; bits &= bits - 1) {
+          const int p = __builtin_ctz(bits);
+          const int l = list.lane[first + p];
+          if (kQuery == Query::any && (group.hit_lanes >> l & 1)) continue;
+          const std::uint32_t id = list.prim[first + p];
+          TriangleHit<float> hit{batch.t[p], batch.u[p], batch.v[p]};
+          if (batch.scalar >> p & 1) {
+            const TriangleVertices& tri = grid.triangles[id];
+            const WatertightRay<float> ray{{s.org_k[0][l], s.org_k[1][l], s.org_k[2][l]},
+                                           s.axis[0][l],
+                                           s.axis[1][l],
+                                           s.axis[2][l],
+                                           s.shear[0][l],
+                                           s.shear[1][l],
+                                           s.shear[2][l],
+                                           s.tmin[l],
+                                           s.tmax[l]};
+            if (!intersect_watertight(ray, tri.p0, tri.p1, tri.p2, float(INFINITY), hit)) continue;
+          }
+          const float best_t = s.best_t[l];
+          if (hit.t > best_t || (hit.t == best_t && id > std::uint32_t(s.best_prim[l]))) continue;
+          s.best_t[l] = hit.t;
+          s.best_u[l] = hit.u;
+          s.best_v[l] = hit.v;
+          s.best_prim[l] = std::int32_t(id);
+          if constexpr (kQuery == Query::any) {
+            group.hit_lanes |= 1u << l;
+            group.triangles_tested[l] += list.ordinal[first + p] + 1;  // the tests up to this hit
+          }
+        }
+      }
+      list.size = 0;
+    };
+    // Lists the tests of the cells of `group`, each lane's in its reference order, and requests
+    // their triangles. Runs the tests early only when the list fills.
+    const auto list_tests = [&](Group& group, I cell_refs) {
+      const LaneCells& c = group.c;
+      TestList& list = group.list;
+      if (!V::any(V::greater(cell_refs, V::splat(L)))) {
+        // The usual round: every cell has at most L references, and all fit the list (L rows
+        // of L). One row per lane, without branches, then the triangles of every listed test
+        // (slots past the size hold earlier, valid ids).
+        alignas(64) std::int32_t count[L];
+        V::store(count, cell_refs);
+#pragma GCC unroll 16
+        for (int l = 0; l < L; ++l)
+          list.append_row(l, grid.refs + c.begin[l], count[l], 0);
+        for (int row = 0; row < list.size; row += L) {
+#pragma GCC unroll 16
+          for (int k = 0; k < L; ++k)
+            __builtin_prefetch(triangles + list.prim[row + k]);
+        }
+        return;
+      }
+      for (std::uint32_t bits = group.active; bits != 0; bits &= bits - 1) {
+        const int l = __builtin_ctz(bits);
+        const std::int32_t begin = c.begin[l], count = c.end[l] - begin;
+        for (std::int32_t done = 0; done < count;) {
+          if (kQuery == Query::any && (group.hit_lanes >> l & 1)) break;
+          const int room = TestList::kCapacity - list.size;
+          const int take = count - done < room ? count - done : room;
+          const std::uint32_t* ids = list.prim + list.size;
+          list.append(l, grid.refs + begin + done, take, done);
+          for (int k = 0; k < take; ++k)
+            __builtin_prefetch(triangles + ids[k]);
+          done += take;
+          if (list.size == TestList::kCapacity) run_tests(group);
+        }
+      }
+    };
+
+    bool walking = false;
+    for (Group& group : groups)
+      walking |= (group.active = start(group, (1u << L) - 1)) != 0;
+    while (walking) {
+      // Every phase runs for all groups before the next phase, so that one group's loads are
+      // in flight while another computes.
+      find_cells(grid, cells, groups);
+      LaneExit exit[G];
+      I cell_refs[G];  // references per lane's cell, 0 in idle lanes
+      for (int g = 0; g < G; ++g) {
+        exit[g] = cell_exits(groups[g].s, groups[g].c);
+        groups[g].hit_lanes = 0;
+        cell_refs[g] = V::sub(V::load(groups[g].c.end), V::load(groups[g].c.begin));
+        list_tests(groups[g], cell_refs[g]);
+      }
+      walking = false;
+      for (int g = 0; g < G; ++g) {
+        Group& group = groups[g];
+        if (group.active == 0) continue;
+        if (group.list.size > 0) run_tests(group);
+        const M lanes = V::lanes(group.active);
+        // Every listed test counts, except those past an any-hit query's hit (counted above).
+        const M whole_cells =
+            kQuery == Query::any ? V::but_not(V::lanes(group.hit_lanes), lanes) : lanes;
+        V::store(group.triangles_tested,
+                 V::add(V::load(group.triangles_tested), V::keep(whole_cells, cell_refs[g])));
+        const std::uint32_t ended =
+            (V::bits(step_lanes(grid.info, group.s, exit[g])) | group.hit_lanes) & group.active;
+        V::store(group.cells_visited,
+                 V::add(V::load(group.cells_visited), V::keep(lanes, V::splat(1))));
+        const Lanes& s = group.s;
+        for (std::uint32_t bits = ended; bits != 0; bits &= bits - 1) {
+          const int l = __builtin_ctz(bits);
+          const auto prim = std::uint32_t(s.best_prim[l]);
+          const std::uint32_t ray = group.ray_of[l];
+          hits[ray] = prim == kNoHit ? Hit{} : Hit{prim, s.best_t[l], s.best_u[l], s.best_v[l]};
+          if (counted)
+            work[ray] = {std::uint32_t(group.cells_visited[l]),
+                         std::uint32_t(group.triangles_tested[l])};
+        }
+        group.active = (group.active & ~ended) | start(group, ended);
+        walking |= group.active != 0;
+      }
+    }
+  }
+};
+
+}  // namespace irgrid::simd
