@@ -18,8 +18,13 @@ namespace irgrid {
 /// is the compressed cell array, or null when the grid keeps full cells.
 template <typename Exec>
 GridView grid_view(const GridArrays<Exec>& grid, const CompactCell* compact) {
-  return {grid.info, grid.entries.data(), grid.cells.data(),
-          compact,   grid.refs.data(),    grid.triangles.data()};
+  return {grid.info,
+          grid.entries.data(),
+          grid.cells.data(),
+          compact,
+          grid.refs.data(),
+          grid.triangles.data(),
+          grid.empty_radii.empty() ? nullptr : grid.empty_radii.data()};
 }
 
 /// The name, the build figures and the checks of trace / trace_counted, for grids on any

@@ -57,6 +57,7 @@ void expect_same_grid(const Scene& scene, const BuildConfig& config, const std::
   expect_same_array(gpu.entries, cpu.entries, what + ": voxel map");
   expect_same_array(gpu.cells, cpu.cells, what + ": cells");
   expect_same_array(gpu.refs, cpu.refs, what + ": references");
+  expect_same_array(gpu.empty_radii, cpu.empty_radii, what + ": empty radii");
   if (config.compress && fits_compact_cells(cpu.info)) {
     CpuExecutor exec;
     CpuExecutor::Buffer<CompactCell> compact;
@@ -103,6 +104,7 @@ TEST(GpuGrid, RebuildsAreIdenticalAndAllocateNothing) {
   expect_same_array(once.entries, thrice.entries, "voxel map");
   expect_same_array(once.cells, thrice.cells, "cells");
   expect_same_array(once.refs, thrice.refs, "references");
+  expect_same_array(once.empty_radii, thrice.empty_radii, "empty radii");
 #endif
 }
 

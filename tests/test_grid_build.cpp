@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <utility>
 
 #include "core/build/compress_cells.h"
 #include "core/random.h"
@@ -93,6 +94,73 @@ TEST_P(GridBuild, EveryTriangleTouchingACellIsInItsList) {
   EXPECT_GT(overlaps, 0u);
 }
 
+// The world box of the top cells from `top` towards `octant` as far as `radius` (>= 1), clipped
+// to the grid: the cube a walk leaps across (leave_empty_space).
+std::pair<Vec3<float>, Vec3<float>> empty_cube(const GridInfo& info, const std::int32_t top[3],
+                                               std::uint32_t octant, std::int32_t radius) {
+  Vec3<float> lo, hi;
+  for (int a = 0; a < 3; ++a) {
+    const bool up = !(octant >> a & 1);
+    const std::int32_t first = up ? top[a] : std::max(top[a] - (radius - 1), 0);
+    const std::int32_t last = up ? std::min(top[a] + radius, info.top_dims[a]) : top[a] + 1;
+    lo[a] = voxel_to_world(info, a, first << info.shift);
+    hi[a] = voxel_to_world(info, a, last << info.shift);
+  }
+  return {lo, hi};
+}
+
+TEST_P(GridBuild, EmptyRadiiReachTheNearestTopCellWithTriangles) {
+  const Scene scene = load_scene(GetParam());
+  const auto grid = build_test_grid(scene, BuildConfig{});
+  const GridInfo& info = grid.info;
+  const std::uint32_t top_cells =
+      std::uint32_t(info.top_dims[0] * info.top_dims[1] * info.top_dims[2]);
+  ASSERT_EQ(grid.empty_radii.size(), 8 * std::size_t(top_cells) + kEmptyRadiiSlack);
+  const auto overlapped = [&](const std::pair<Vec3<float>, Vec3<float>>& box, float padding) {
+    for (std::uint32_t t = 0; t < info.num_triangles; ++t) {
+      const auto& tri = grid.triangles[t];
+      if (triangle_overlaps_box(tri.p0, tri.p1, tri.p2, box.first, box.second, padding))
+        return true;
+    }
+    return false;
+  };
+  Pcg32 rng;
+  rng.seed(5);
+  int leaps = 0, bounded = 0;
+  for (int k = 0; k < 300; ++k) {
+    const std::uint32_t cell = rng.next_u32() % top_cells, octant = rng.next_u32() % 8;
+    const std::int32_t top[3] = {
+        std::int32_t(cell % std::uint32_t(info.top_dims[0])),
+        std::int32_t(cell / std::uint32_t(info.top_dims[0]) % std::uint32_t(info.top_dims[1])),
+        std::int32_t(cell / std::uint32_t(info.top_dims[0]) / std::uint32_t(info.top_dims[1]))};
+    const std::int32_t radius = grid.empty_radii[8 * cell + octant];
+    // The cube a walk leaps across holds no triangle ...
+    if (radius > 0) {
+      ++leaps;
+      EXPECT_FALSE(overlapped(empty_cube(info, top, octant, radius), 0.f))
+          << "top cell " << cell << ", octant " << octant << ", radius " << radius;
+    }
+    // ... and one top cell more reaches one the build found triangles in.
+    if (radius < std::int32_t(kMaxEmptyRadius)) {
+      ++bounded;
+      EXPECT_TRUE(overlapped(empty_cube(info, top, octant, radius + 1), info.padding))
+          << "top cell " << cell << ", octant " << octant << ", radius " << radius;
+    }
+  }
+  EXPECT_GT(bounded, 0);
+  if (GetParam() == "builtin:teapot-stadium:4000") EXPECT_GT(leaps, 0);
+}
+
+TEST(GridBuild, EmptyRadiiOnlyForIrregularGridsThatSkipEmptySpace) {
+  const Scene scene = load_scene("builtin:teapot-stadium:4000");
+  BuildConfig config;
+  config.skip_empty = false;
+  EXPECT_TRUE(build_test_grid(scene, config).empty_radii.empty());
+  config.skip_empty = true;
+  config.shape = BuildConfig::Shape::two_level;
+  EXPECT_TRUE(build_test_grid(scene, config).empty_radii.empty());
+}
+
 TEST_P(GridBuild, SameGridWhateverTheThreadCount) {
   const Scene scene = load_scene(GetParam());
   auto build_with = [&](int threads) {
@@ -108,6 +176,7 @@ TEST_P(GridBuild, SameGridWhateverTheThreadCount) {
   ASSERT_EQ(one.cells.size(), two.cells.size());
   EXPECT_EQ(std::memcmp(one.cells.data(), two.cells.data(), one.cells.size() * sizeof(Cell)), 0);
   EXPECT_EQ(one.refs, two.refs);
+  EXPECT_EQ(one.empty_radii, two.empty_radii);
 }
 
 TEST_P(GridBuild, RangesFollowTheCellOrderAndCompressLosslessly) {

@@ -29,6 +29,10 @@ struct BuildConfig {
   int expansion_passes = 3;
   /// Let a cell grow part-way into a neighbour holding extra triangles.
   bool partial_expansion = true;
+  /// Rays in empty space leap across the cube of empty top cells around them (the chessboard
+  /// distance to the nearest top cell with triangles, one byte per top cell), not just across
+  /// their cell. Irregular grids only: the baselines stay as published.
+  bool skip_empty = true;
   /// 16-byte cells when the virtual grid fits 16 bits per axis.
   bool compress = true;
   /// Baselines built from the same phases: split every top cell fully to its depth (two-level

@@ -32,7 +32,7 @@ class GridCpu final : public GridAcceleratorBase {
     }
     info_.build_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    record_grid_statistics(grid_.info, !compact_cells_.empty(), info_);
+    record_grid_statistics(grid_.info, !compact_cells_.empty(), grid_.empty_radii.size(), info_);
     info_.counts["peak_build_bytes"] = std::uint64_t(MemoryMeter::peak() - before);
   }
 

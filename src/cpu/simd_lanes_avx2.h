@@ -44,6 +44,8 @@ struct Avx2Lanes {
   static I sub(I a, I b) { return _mm256_sub_epi32(a, b); }
   static I mul(I a, I b) { return _mm256_mullo_epi32(a, b); }
   static I bit_and(I a, I b) { return _mm256_and_si256(a, b); }
+  /// ~a & b
+  static I bit_and_not(I a, I b) { return _mm256_andnot_si256(a, b); }
   static I bit_or(I a, I b) { return _mm256_or_si256(a, b); }
   template <int kBits>
   static I shift_right_logical(I a) {

@@ -45,6 +45,8 @@ struct Avx512Lanes {
   static I sub(I a, I b) { return _mm512_sub_epi32(a, b); }
   static I mul(I a, I b) { return _mm512_mullo_epi32(a, b); }
   static I bit_and(I a, I b) { return _mm512_and_si512(a, b); }
+  /// ~a & b
+  static I bit_and_not(I a, I b) { return _mm512_andnot_si512(a, b); }
   static I bit_or(I a, I b) { return _mm512_or_si512(a, b); }
   template <int kBits>
   static I shift_right_logical(I a) {

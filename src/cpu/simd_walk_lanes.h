@@ -68,6 +68,7 @@ struct LaneWalk {
   struct alignas(64) LaneCells {
     std::int32_t lo[3][L], hi[3][L];  // exit box
     std::int32_t begin[L], end[L];    // references
+    std::int32_t empty_radius[L];     // of the top cell in the walk's octant; 0: no leap
   };
 
   /// Per lane: v[k] for k in 0..2.
@@ -218,7 +219,8 @@ struct LaneWalk {
     F t_exit;
   };
 
-  static LaneExit cell_exits(const Lanes& s, const LaneCells& c) {
+  /// cell_exit, then leave_empty_space for the lanes in empty cells with an empty radius.
+  static LaneExit cell_exits(const GridInfo& info, const Lanes& s, const LaneCells& c) {
     LaneExit e;
     e.t_exit = V::load(s.t_leave);
     for (int a = 0; a < 3; ++a) {
@@ -227,6 +229,30 @@ struct LaneWalk {
                            V::load(s.t_at_plane0[a]));
       e.t_exit = V::min(e.t_axis[a], e.t_exit);
     }
+    const I zero = V::splat(0), radius = V::load(c.empty_radius);
+    const M leaps = V::both(V::greater(radius, zero), V::equal(V::load(c.begin), V::load(c.end)));
+    if (!V::any(leaps)) return e;
+    LaneExit cube;
+    cube.t_exit = V::load(s.t_leave);
+    const I shift = V::splat(info.shift);
+    for (int a = 0; a < 3; ++a) {
+      const I top = V::shift_right(V::load(s.voxel[a]), info.shift);
+      const I hi = V::add(top, radius), lo = V::sub(top, V::sub(radius, V::splat(1)));
+      const I dims = V::splat(info.top_dims[a]);
+      const I far =
+          V::select(V::as_mask(V::load(s.ascending[a])), V::select(V::greater(lo, zero), zero, lo),
+                    V::select(V::greater(dims, hi), dims, hi));
+      cube.far[a] = V::shift_left(far, shift);
+      cube.t_axis[a] = V::add(V::mul(V::to_float(cube.far[a]), V::load(s.t_per_voxel[a])),
+                              V::load(s.t_at_plane0[a]));
+      cube.t_exit = V::min(cube.t_axis[a], cube.t_exit);
+    }
+    const M wider = V::both(leaps, compare<_CMP_GT_OQ>(cube.t_exit, e.t_exit));
+    for (int a = 0; a < 3; ++a) {
+      e.far[a] = V::select(wider, e.far[a], cube.far[a]);
+      e.t_axis[a] = V::select(wider, e.t_axis[a], cube.t_axis[a]);
+    }
+    e.t_exit = V::select(wider, e.t_exit, cube.t_exit);
     return e;
   }
 
@@ -394,6 +420,19 @@ struct LaneWalk {
       entry[g] = V::template gather<4>(zero, grid.entries, top, active);
       level_shift[g] = V::splat(info.shift);
       inner[g] = V::both(active, V::greater(V::template shift_right_logical<30>(entry[g]), zero));
+      // Only empty top cells have an empty radius, and their map entries are leaves.
+      I radius = zero;
+      if (grid.empty_radii) {
+        const Lanes& s = groups[g].s;
+        const I octant = V::bit_or(V::bit_or(V::bit_and_not(V::load(s.ascending[0]), V::splat(1)),
+                                             V::bit_and_not(V::load(s.ascending[1]), V::splat(2))),
+                                   V::bit_and_not(V::load(s.ascending[2]), V::splat(4)));
+        const I index = V::add(V::template shift_left<3>(top), octant);
+        radius = V::bit_and(
+            V::template gather<1>(zero, grid.empty_radii, index, V::but_not(inner[g], active)),
+            V::splat(0xff));
+      }
+      V::store(groups[g].c.empty_radius, radius);
     }
     for (bool descending = true; descending;) {
       descending = false;
@@ -549,7 +588,7 @@ struct LaneWalk {
       LaneExit exit[G];
       I cell_refs[G];  // references per lane's cell, 0 in idle lanes
       for (int g = 0; g < G; ++g) {
-        exit[g] = cell_exits(groups[g].s, groups[g].c);
+        exit[g] = cell_exits(grid.info, groups[g].s, groups[g].c);
         groups[g].hit_lanes = 0;
         cell_refs[g] = V::sub(V::load(groups[g].c.end), V::load(groups[g].c.begin));
         list_tests(groups[g], cell_refs[g]);

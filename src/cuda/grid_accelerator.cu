@@ -72,7 +72,7 @@ class GridCuda final : public GridAcceleratorBase {
     exec_.pool().trim();
     info_.build_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    record_grid_statistics(grid_.info, !compact_cells_.empty(), info_);
+    record_grid_statistics(grid_.info, !compact_cells_.empty(), grid_.empty_radii.size(), info_);
     info_.counts["peak_build_bytes"] = exec_.pool().peak();
   }
 
@@ -160,6 +160,7 @@ HostGridArrays build_grid_cuda_arrays(const Scene& scene, const BuildConfig& con
     out.cells = to_host(grid.cells);
     out.compact_cells = to_host(compact);
     out.refs = to_host(grid.refs);
+    out.empty_radii = to_host(grid.empty_radii);
     out.fresh_allocations_last_build = exec.pool().fresh_allocations() - fresh_before;
   }
   return out;

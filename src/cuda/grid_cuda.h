@@ -17,6 +17,7 @@ struct HostGridArrays {
   std::vector<Cell> cells;                 ///< the full cells, before compression
   std::vector<CompactCell> compact_cells;  ///< empty unless config.compress and they fit
   std::vector<std::uint32_t> refs;
+  std::vector<std::uint8_t> empty_radii;  ///< empty unless the grid skips empty space
   /// Device allocations that reached the driver during the last of the builds (0 when the
   /// arena served them all).
   std::uint64_t fresh_allocations_last_build = 0;

@@ -40,6 +40,7 @@ nlohmann::json statistics_json(const Scene& scene, const Accelerator& accelerato
             {"empty_aspect", grid.empty_aspect},
             {"expansion_passes", grid.expansion_passes},
             {"partial_expansion", grid.partial_expansion},
+            {"skip_empty", grid.skip_empty},
             {"compress", grid.compress}}}};
 }
 

@@ -73,6 +73,10 @@ void add_structure_options(CLI::App* command, StructureOptions& options) {
                  "Let cells grow part-way into neighbours (default on)")
       ->group("Grid");
   command
+      ->add_flag("--skip-empty,!--no-skip-empty", grid.skip_empty,
+                 "Rays leap across the empty top cells ahead of them (default on)")
+      ->group("Grid");
+  command
       ->add_flag("--compress,!--no-compress", grid.compress,
                  "16-byte cells when they fit (default on)")
       ->group("Grid");

@@ -13,6 +13,7 @@
 
 #include "core/build/cells.h"
 #include "core/build/compact_map.h"
+#include "core/build/empty_space.h"
 #include "core/build/expand.h"
 #include "core/build/merge.h"
 #include "core/build/octree_levels.h"
@@ -26,9 +27,10 @@ namespace irgrid {
 /// The octree depths of a build (paper §3.1, and our count rule: BuildConfig::split_refs).
 template <typename Exec>
 struct OctreeDepths {
-  typename Exec::template Buffer<std::int32_t> per_top_cell;  ///< λ2 depth of each top cell
-  std::int32_t deepest_lambda2 = 0;                           ///< the largest per-top-cell depth
-  std::int32_t count_split = 0;  ///< the depth count splits may reach; 0 when none can
+  typename Exec::template Buffer<std::int32_t> per_top_cell;        ///< λ2 depth of each top cell
+  typename Exec::template Buffer<std::uint32_t> refs_per_top_cell;  ///< top-level references
+  std::int32_t deepest_lambda2 = 0;  ///< the largest per-top-cell depth
+  std::int32_t count_split = 0;      ///< the depth count splits may reach; 0 when none can
 };
 
 /// Per-top-cell octree depths, and the grid's depth D (info.shift): the deepest level any node
@@ -39,10 +41,10 @@ OctreeDepths<Exec> plan_octree_depths(Exec& exec, GridInfo& info, const RefPairs
                                       const BuildConfig& config) {
   const std::uint32_t n = std::uint32_t(info.top_dims[0]) * std::uint32_t(info.top_dims[1]) *
                           std::uint32_t(info.top_dims[2]);
-  OctreeDepths<Exec> out{exec.template allocate<std::int32_t>(n)};
-  auto counts = exec.template allocate<std::uint32_t>(n);
+  OctreeDepths<Exec> out{exec.template allocate<std::int32_t>(n),
+                         exec.template allocate<std::uint32_t>(n)};
   std::int32_t* d_depths = out.per_top_cell.data();
-  std::uint32_t* d_counts = counts.data();
+  std::uint32_t* d_counts = out.refs_per_top_cell.data();
   exec.for_each("depth clear", n, [=] IRGRID_HD(std::size_t i) { d_counts[i] = 0; });
   const std::uint32_t* cell = pairs.cell.data();
   exec.for_each("depth count", pairs.count,
@@ -110,6 +112,10 @@ std::int32_t build_initial_grid(Exec& exec, GridArrays<Exec>& grid, const BuildC
                         config.split_refs, depths.count_split};
   auto levels = build_octree_levels(exec, grid.info, triangles, std::move(pairs), rule);
   clock.lap("octree levels");
+  if (config.skip_empty && config.shape == BuildConfig::Shape::irregular) {
+    grid.empty_radii = empty_space_radii(exec, grid.info, depths.refs_per_top_cell.data());
+    clock.lap("empty space");
+  }
   assemble_grid(exec, levels, grid);
   clock.lap("cells and references");
   return depths.deepest_lambda2;

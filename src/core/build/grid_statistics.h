@@ -23,8 +23,10 @@ inline const char* grid_shape_name(BuildConfig::Shape shape) {
   return "grid";
 }
 
-/// Fills the counts, bytes per array and total bytes of `out` from a built grid's scalars.
-inline void record_grid_statistics(const GridInfo& g, bool compressed, BuildInfo& out) {
+/// Fills the counts, bytes per array and total bytes of `out` from a built grid's scalars;
+/// empty_radii_bytes is the size of its empty radii (0 without them).
+inline void record_grid_statistics(const GridInfo& g, bool compressed,
+                                   std::uint64_t empty_radii_bytes, BuildInfo& out) {
   out.counts["cells"] = g.num_cells;
   out.counts["references"] = g.num_refs;
   out.counts["entries"] = g.num_entries;
@@ -38,6 +40,7 @@ inline void record_grid_statistics(const GridInfo& g, bool compressed, BuildInfo
                {"references", std::uint64_t(g.num_refs) * sizeof(std::uint32_t)},
                {"voxel_map", std::uint64_t(g.num_entries) * sizeof(Entry)},
                {"triangles", std::uint64_t(g.num_triangles) * sizeof(TriangleVertices)}};
+  if (empty_radii_bytes > 0) out.bytes["empty_radii"] = empty_radii_bytes;
   out.memory_bytes = 0;
   for (const auto& [name, bytes] : out.bytes)
     out.memory_bytes += bytes;

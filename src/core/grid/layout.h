@@ -57,6 +57,16 @@ struct CompactCell {
 };
 static_assert(sizeof(CompactCell) == 16 && alignof(CompactCell) == 4);
 
+/// Bytes of slack after the radii, so that lane-wise 4-byte reads of the last radius stay in the
+/// buffer.
+inline constexpr std::uint32_t kEmptyRadiiSlack = 3;
+
+/// The octant of a walk's direction: bit a set where the walk descends along axis a. The empty
+/// radii (core/build/empty_space.h) are stored per top cell and octant, at top cell x 8 + octant.
+IRGRID_HD inline std::uint32_t walk_octant(const bool ascending[3]) {
+  return (ascending[0] ? 0u : 1u) | (ascending[1] ? 0u : 2u) | (ascending[2] ? 0u : 4u);
+}
+
 /// Whether the grid's voxel coordinates fit compressed cells (every exit-box bound < 2^16).
 IRGRID_HD inline bool fits_compact_cells(const GridInfo& info) {
   return info.virtual_dims[0] <= kMaxCompactResolution &&

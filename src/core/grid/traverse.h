@@ -24,6 +24,8 @@ struct GridView {
   const CompactCell* compact_cells;  ///< compressed cells (num_cells + 1), or null
   const std::uint32_t* refs;
   const TriangleVertices* triangles;
+  /// Empty radius per top cell (core/build/empty_space.h), or null: no leaps through empty space.
+  const std::uint8_t* empty_radii;
 };
 
 /// The view's cell array of layout CellT (Cell or CompactCell).
@@ -154,6 +156,34 @@ IRGRID_HD inline CellExit cell_exit(const GridWalk& w, const Cell& cell) {
   return e;
 }
 
+/// Where walk w leaves the empty space ahead of it when that is farther than e, the exit of its
+/// empty cell: the cube of top cells from w's top cell towards the octant of w's direction, as
+/// far as that octant's empty radius (core/build/empty_space.h), clipped to the grid; none of
+/// its cells holds triangles. Call only for cells without references, with grid.empty_radii
+/// set. The step past the cube is the step past a cell (step_past_cell): the cube, like an exit
+/// box, holds w's voxel, is made of whole voxels, and is left through its far planes.
+IRGRID_HD inline void leave_empty_space(const GridView& grid, const GridWalk& w, CellExit& e) {
+  const GridInfo& info = grid.info;
+  std::int32_t top[3];
+  for (int a = 0; a < 3; ++a)
+    top[a] = w.voxel[a] >> info.shift;
+  const std::uint32_t top_cell =
+      std::uint32_t((top[2] * info.top_dims[1] + top[1]) * info.top_dims[0] + top[0]);
+  const std::int32_t radius = grid.empty_radii[8 * top_cell + walk_octant(w.walk.ascending)];
+  if (radius == 0) return;  // an empty octree node in a top cell with triangles
+  CellExit cube;
+  cube.t_exit = w.t_leave;
+  for (int a = 0; a < 3; ++a) {
+    const std::int32_t hi = top[a] + radius, lo = top[a] - (radius - 1);
+    cube.far[a] =
+        (w.walk.ascending[a] ? (hi < info.top_dims[a] ? hi : info.top_dims[a]) : (lo > 0 ? lo : 0))
+        << info.shift;
+    cube.t_axis[a] = float(cube.far[a]) * w.walk.t_per_voxel[a] + w.walk.t_at_plane0[a];
+    cube.t_exit = min_fast(cube.t_axis[a], cube.t_exit);
+  }
+  if (cube.t_exit > e.t_exit) e = cube;
+}
+
 /// Tests the triangles of references [begin, end) and keeps the closest hit in w.best (ties on t
 /// go to the smaller id, as in the brute force). Any hit: true as soon as one is found.
 template <Query kQuery>
@@ -216,7 +246,8 @@ IRGRID_HD IRGRID_ALWAYS_INLINE Hit traverse_grid(const GridView& grid, const Ray
   while (true) {
     const Cell cell = load_cell(cells, lookup_cell(grid.info, grid.entries, w.voxel));
     if (counters) ++counters->cells;
-    const CellExit exit = cell_exit(w, cell);
+    CellExit exit = cell_exit(w, cell);
+    if (cell.begin == cell.end && grid.empty_radii) leave_empty_space(grid, w, exit);
     if (test_cell_triangles<kQuery>(grid, cell.begin, cell.end, w, counters)) break;
     if (!step_past_cell(grid.info, exit, w)) break;
   }
