@@ -185,6 +185,14 @@ TEST_F(Cli, BuildPrintsStatisticsAndJson) {
   EXPECT_GT(json["counts"]["cells"].get<int>(), 0);
   EXPECT_FLOAT_EQ(json["config"]["lambda1"].get<float>(), 0.5f);
   EXPECT_GT(json["memory_breakdown_bytes"]["voxel_map"].get<int>(), 0);
+  EXPECT_TRUE(json["config"]["skip_empty"].get<bool>());
+  EXPECT_GT(json["memory_breakdown_bytes"]["empty_radii"].get<int>(), 0);
+  EXPECT_GT(json["build_phases_ms"].count("empty space"), 0u);
+  const auto [walled, walled_json] =
+      run_json("build builtin:cornell --no-skip-empty", "walled.json");
+  ASSERT_EQ(walled.code, 0) << walled.err;
+  EXPECT_FALSE(walled_json["config"]["skip_empty"].get<bool>());
+  EXPECT_EQ(walled_json["memory_breakdown_bytes"].count("empty_radii"), 0u);
   EXPECT_EQ(run("build builtin:cornell --lambda1 -1").code, 2);
 }
 
