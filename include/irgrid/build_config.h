@@ -29,9 +29,9 @@ struct BuildConfig {
   int expansion_passes = 3;
   /// Let a cell grow part-way into a neighbour holding extra triangles.
   bool partial_expansion = true;
-  /// Rays in empty space leap across the cube of empty top cells around them (the chessboard
-  /// distance to the nearest top cell with triangles, one byte per top cell), not just across
-  /// their cell. Irregular grids only: the baselines stay as published.
+  /// Rays in empty space leap across the cube of empty top cells ahead of them (the chessboard
+  /// distance to the nearest top cell with triangles in the ray's octant, 8 bytes per top cell),
+  /// not just across their cell. Irregular grids only: the baselines stay as published.
   bool skip_empty = true;
   /// 16-byte cells when the virtual grid fits 16 bits per axis.
   bool compress = true;

@@ -23,8 +23,8 @@ struct GridArrays {
   typename Exec::template Buffer<Cell> cells;
   typename Exec::template Buffer<std::uint32_t> refs;
   typename Exec::template Buffer<TriangleVertices> triangles;
-  /// Empty radius of each top cell (core/build/empty_space.h); empty when the walk does not
-  /// leap through empty space.
+  /// Empty radii of each top cell, one per octant (core/build/empty_space.h); empty when the
+  /// walk does not leap through empty space.
   typename Exec::template Buffer<std::uint8_t> empty_radii;
   /// Start of each octree level in `entries` while the map is in octree form (one block of 8
   /// children per inner entry); empty once the map is compacted.

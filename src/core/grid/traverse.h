@@ -24,7 +24,8 @@ struct GridView {
   const CompactCell* compact_cells;  ///< compressed cells (num_cells + 1), or null
   const std::uint32_t* refs;
   const TriangleVertices* triangles;
-  /// Empty radius per top cell (core/build/empty_space.h), or null: no leaps through empty space.
+  /// Empty radii per top cell and octant (core/build/empty_space.h), or null: no leaps through
+  /// empty space.
   const std::uint8_t* empty_radii;
 };
 
