@@ -81,8 +81,7 @@ void trace_interleaved(const GridView& grid, std::span<const Ray> rays, std::spa
       Lane& lane = lanes[l];
       lane.cell = load_cell(cells, lane.entry.index());
       lane.exit = cell_exit(lane.walk, lane.cell);
-      if (lane.cell.begin == lane.cell.end && grid.empty_radii)
-        leave_empty_space(grid, lane.walk, lane.exit);
+      leave_empty_space(grid, lane.walk, lane.cell, lane.exit);
     }
     for (int l = 0; l < active; ++l) {
       const Cell& cell = lanes[l].cell;

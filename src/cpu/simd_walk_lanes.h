@@ -219,34 +219,41 @@ struct LaneWalk {
     F t_exit;
   };
 
-  /// cell_exit, then leave_empty_space for the lanes in empty cells with an empty radius.
-  static LaneExit cell_exits(const GridInfo& info, const Lanes& s, const LaneCells& c) {
+  /// exit_through, lane-wise: where each lane leaves a box whose far plane on axis a is far[a].
+  static LaneExit exit_through(const Lanes& s, const I far[3]) {
     LaneExit e;
     e.t_exit = V::load(s.t_leave);
     for (int a = 0; a < 3; ++a) {
-      e.far[a] = V::select(V::as_mask(V::load(s.ascending[a])), V::load(c.lo[a]), V::load(c.hi[a]));
-      e.t_axis[a] = V::add(V::mul(V::to_float(e.far[a]), V::load(s.t_per_voxel[a])),
-                           V::load(s.t_at_plane0[a]));
+      e.far[a] = far[a];
+      e.t_axis[a] =
+          V::add(V::mul(V::to_float(far[a]), V::load(s.t_per_voxel[a])), V::load(s.t_at_plane0[a]));
       e.t_exit = V::min(e.t_axis[a], e.t_exit);
     }
+    return e;
+  }
+
+  /// cell_exit, then leave_empty_space for the lanes in empty cells with an empty radius.
+  static LaneExit cell_exits(const GridInfo& info, const Lanes& s, const LaneCells& c) {
+    M up[3];
+    I far[3];
+    for (int a = 0; a < 3; ++a) {
+      up[a] = V::as_mask(V::load(s.ascending[a]));
+      far[a] = V::select(up[a], V::load(c.lo[a]), V::load(c.hi[a]));
+    }
+    LaneExit e = exit_through(s, far);
     const I zero = V::splat(0), radius = V::load(c.empty_radius);
     const M leaps = V::both(V::greater(radius, zero), V::equal(V::load(c.begin), V::load(c.end)));
     if (!V::any(leaps)) return e;
-    LaneExit cube;
-    cube.t_exit = V::load(s.t_leave);
     const I shift = V::splat(info.shift);
     for (int a = 0; a < 3; ++a) {
       const I top = V::shift_right(V::load(s.voxel[a]), info.shift);
       const I hi = V::add(top, radius), lo = V::sub(top, V::sub(radius, V::splat(1)));
       const I dims = V::splat(info.top_dims[a]);
-      const I far =
-          V::select(V::as_mask(V::load(s.ascending[a])), V::select(V::greater(lo, zero), zero, lo),
-                    V::select(V::greater(dims, hi), dims, hi));
-      cube.far[a] = V::shift_left(far, shift);
-      cube.t_axis[a] = V::add(V::mul(V::to_float(cube.far[a]), V::load(s.t_per_voxel[a])),
-                              V::load(s.t_at_plane0[a]));
-      cube.t_exit = V::min(cube.t_axis[a], cube.t_exit);
+      far[a] = V::shift_left(V::select(up[a], V::select(V::greater(lo, zero), zero, lo),
+                                       V::select(V::greater(dims, hi), dims, hi)),
+                             shift);
     }
+    const LaneExit cube = exit_through(s, far);
     const M wider = V::both(leaps, compare<_CMP_GT_OQ>(cube.t_exit, e.t_exit));
     for (int a = 0; a < 3; ++a) {
       e.far[a] = V::select(wider, e.far[a], cube.far[a]);

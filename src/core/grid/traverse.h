@@ -145,43 +145,49 @@ struct CellExit {
   float t_exit;
 };
 
-/// Where walk w leaves `cell` (through the cell's exit box).
-IRGRID_HD inline CellExit cell_exit(const GridWalk& w, const Cell& cell) {
+/// Where walk w leaves a box of voxels whose far plane on axis a is far[a].
+IRGRID_HD inline CellExit exit_through(const GridWalk& w, const std::int32_t far[3]) {
   CellExit e;
   e.t_exit = w.t_leave;
   for (int a = 0; a < 3; ++a) {
-    e.far[a] = w.walk.ascending[a] ? cell.hi[a] : cell.lo[a];
-    e.t_axis[a] = float(e.far[a]) * w.walk.t_per_voxel[a] + w.walk.t_at_plane0[a];
+    e.far[a] = far[a];
+    e.t_axis[a] = float(far[a]) * w.walk.t_per_voxel[a] + w.walk.t_at_plane0[a];
     e.t_exit = min_fast(e.t_axis[a], e.t_exit);
   }
   return e;
 }
 
-/// Where walk w leaves the empty space ahead of it when that is farther than e, the exit of its
-/// empty cell: the cube of top cells from w's top cell towards the octant of w's direction, as
-/// far as that octant's empty radius (core/build/empty_space.h), clipped to the grid; none of
-/// its cells holds triangles. Call only for cells without references, with grid.empty_radii
-/// set. The step past the cube is the step past a cell (step_past_cell): the cube, like an exit
-/// box, holds w's voxel, is made of whole voxels, and is left through its far planes.
-IRGRID_HD inline void leave_empty_space(const GridView& grid, const GridWalk& w, CellExit& e) {
-  const GridInfo& info = grid.info;
-  std::int32_t top[3];
+/// Where walk w leaves `cell` (through the cell's exit box).
+IRGRID_HD inline CellExit cell_exit(const GridWalk& w, const Cell& cell) {
+  std::int32_t far[3];
   for (int a = 0; a < 3; ++a)
-    top[a] = w.voxel[a] >> info.shift;
-  const std::uint32_t top_cell =
-      std::uint32_t((top[2] * info.top_dims[1] + top[1]) * info.top_dims[0] + top[0]);
-  const std::int32_t radius = grid.empty_radii[8 * top_cell + walk_octant(w.walk.ascending)];
+    far[a] = w.walk.ascending[a] ? cell.hi[a] : cell.lo[a];
+  return exit_through(w, far);
+}
+
+/// Where walk w leaves the empty space ahead of it, when w is in a cell without references and
+/// that is farther than e, the cell's exit: the cube of top cells from w's top cell towards the
+/// octant of w's direction, as far as that octant's empty radius (core/build/empty_space.h),
+/// clipped to the grid; none of its cells holds triangles. Nothing changes without radii
+/// (grid.empty_radii null) or with radius 0. The step past the cube is the step past a cell
+/// (step_past_cell): the cube, like an exit box, holds w's voxel, is made of whole voxels, and is
+/// left through its far planes.
+IRGRID_HD inline void leave_empty_space(const GridView& grid, const GridWalk& w, const Cell& cell,
+                                        CellExit& e) {
+  if (cell.begin != cell.end || !grid.empty_radii) return;
+  const GridInfo& info = grid.info;
+  const std::int32_t radius =
+      grid.empty_radii[8 * top_entry_index(info, w.voxel) + walk_octant(w.walk.ascending)];
   if (radius == 0) return;  // an empty octree node in a top cell with triangles
-  CellExit cube;
-  cube.t_exit = w.t_leave;
+  std::int32_t far[3];
   for (int a = 0; a < 3; ++a) {
-    const std::int32_t hi = top[a] + radius, lo = top[a] - (radius - 1);
-    cube.far[a] =
+    const std::int32_t top = w.voxel[a] >> info.shift;
+    const std::int32_t hi = top + radius, lo = top - (radius - 1);
+    far[a] =
         (w.walk.ascending[a] ? (hi < info.top_dims[a] ? hi : info.top_dims[a]) : (lo > 0 ? lo : 0))
         << info.shift;
-    cube.t_axis[a] = float(cube.far[a]) * w.walk.t_per_voxel[a] + w.walk.t_at_plane0[a];
-    cube.t_exit = min_fast(cube.t_axis[a], cube.t_exit);
   }
+  const CellExit cube = exit_through(w, far);
   if (cube.t_exit > e.t_exit) e = cube;
 }
 
@@ -248,7 +254,7 @@ IRGRID_HD IRGRID_ALWAYS_INLINE Hit traverse_grid(const GridView& grid, const Ray
     const Cell cell = load_cell(cells, lookup_cell(grid.info, grid.entries, w.voxel));
     if (counters) ++counters->cells;
     CellExit exit = cell_exit(w, cell);
-    if (cell.begin == cell.end && grid.empty_radii) leave_empty_space(grid, w, exit);
+    leave_empty_space(grid, w, cell, exit);
     if (test_cell_triangles<kQuery>(grid, cell.begin, cell.end, w, counters)) break;
     if (!step_past_cell(grid.info, exit, w)) break;
   }
