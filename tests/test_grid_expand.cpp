@@ -303,31 +303,38 @@ GridInfo unit_grid(float padding) {
 }
 
 TEST(GridExpandFace, PartialGrowthStopsBeforeTheFirstExtraTriangle) {
-  using expand_detail::growth_before_box;
   const GridInfo info = unit_grid(1e-3f);
   const Cell c{{2, 2, 2}, 0, {4, 4, 4}, 0};
+  const auto up = [&](const BoxF& box, std::int32_t limit) {
+    return expand_detail::growth_before_box<0, +1>(info, c, expand_detail::StoredBounds{box},
+                                                   limit);
+  };
+  const auto down = [&](const BoxF& box, std::int32_t limit) {
+    return expand_detail::growth_before_box<0, -1>(info, c, expand_detail::StoredBounds{box},
+                                                   limit);
+  };
   // Upper x face at 4: a box starting at x = 7.5 lets the face move to plane 7.
-  EXPECT_EQ(growth_before_box(info, c, 0, +1, {{7.5f, 3, 3}, {9, 3.5f, 3.5f}}, 10), 3);
+  EXPECT_EQ(up({{7.5f, 3, 3}, {9, 3.5f, 3.5f}}, 10), 3);
   // A box starting exactly on plane 7 (or within twice the padding of it) stops the face at 6.
-  EXPECT_EQ(growth_before_box(info, c, 0, +1, {{7.f, 3, 3}, {9, 3.5f, 3.5f}}, 10), 2);
-  EXPECT_EQ(growth_before_box(info, c, 0, +1, {{7.0015f, 3, 3}, {9, 3.5f, 3.5f}}, 10), 2);
+  EXPECT_EQ(up({{7.f, 3, 3}, {9, 3.5f, 3.5f}}, 10), 2);
+  EXPECT_EQ(up({{7.0015f, 3, 3}, {9, 3.5f, 3.5f}}, 10), 2);
   // The neighbours' depth still bounds the growth.
-  EXPECT_EQ(growth_before_box(info, c, 0, +1, {{7.5f, 3, 3}, {9, 3.5f, 3.5f}}, 1), 1);
+  EXPECT_EQ(up({{7.5f, 3, 3}, {9, 3.5f, 3.5f}}, 1), 1);
   // A box reaching into the face's plane allows nothing.
-  EXPECT_EQ(growth_before_box(info, c, 0, +1, {{3.9f, 3, 3}, {9, 3.5f, 3.5f}}, 10), 0);
+  EXPECT_EQ(up({{3.9f, 3, 3}, {9, 3.5f, 3.5f}}, 10), 0);
   // Lower x face at 2: a box ending at x = 0.5 lets it move to plane 1.
-  EXPECT_EQ(growth_before_box(info, c, 0, -1, {{0, 3, 3}, {0.5f, 3.5f, 3.5f}}, 10), 1);
-  EXPECT_EQ(growth_before_box(info, c, 0, -1, {{0, 3, 3}, {1.f, 3.5f, 3.5f}}, 10), 0);
+  EXPECT_EQ(down({{0, 3, 3}, {0.5f, 3.5f, 3.5f}}, 10), 1);
+  EXPECT_EQ(down({{0, 3, 3}, {1.f, 3.5f, 3.5f}}, 10), 0);
   // Boxes beside the face's cross-section do not limit; touching it (with the padding) does.
-  EXPECT_EQ(growth_before_box(info, c, 0, +1, {{5, 5, 3}, {9, 6, 3.5f}}, 10), 10);
-  EXPECT_EQ(growth_before_box(info, c, 0, +1, {{5.5f, 4, 3}, {9, 6, 3.5f}}, 10), 1);
-  EXPECT_EQ(growth_before_box(info, c, 0, +1, {{5.5f, 3, 4.0015f}, {9, 3, 6}}, 10), 1);
-  EXPECT_EQ(growth_before_box(info, c, 0, +1, {{5.5f, 3, 4.0025f}, {9, 3, 6}}, 10), 10);
-  EXPECT_EQ(growth_before_box(info, c, 0, +1, {{5.5f, 0, 0}, {9, 1.9975f, 3}}, 10), 10);
+  EXPECT_EQ(up({{5, 5, 3}, {9, 6, 3.5f}}, 10), 10);
+  EXPECT_EQ(up({{5.5f, 4, 3}, {9, 6, 3.5f}}, 10), 1);
+  EXPECT_EQ(up({{5.5f, 3, 4.0015f}, {9, 3, 6}}, 10), 1);
+  EXPECT_EQ(up({{5.5f, 3, 4.0025f}, {9, 3, 6}}, 10), 10);
+  EXPECT_EQ(up({{5.5f, 0, 0}, {9, 1.9975f, 3}}, 10), 10);
   // A NaN box allows nothing.
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  EXPECT_EQ(growth_before_box(info, c, 0, +1, {{nan, nan, nan}, {nan, nan, nan}}, 10), 0);
-  EXPECT_EQ(growth_before_box(info, c, 0, -1, {{nan, nan, nan}, {nan, nan, nan}}, 10), 0);
+  EXPECT_EQ(up({{nan, nan, nan}, {nan, nan, nan}}, 10), 0);
+  EXPECT_EQ(down({{nan, nan, nan}, {nan, nan, nan}}, 10), 0);
 }
 
 /// Mean cells visited and triangles tested per ray.

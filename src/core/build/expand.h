@@ -19,19 +19,20 @@ namespace irgrid {
 
 namespace expand_detail {
 
-/// Grows every cell along `axis` (both directions) from the boxes in grid.cells into `out`.
-/// `can_grow` holds one bit per face (bit 2 * axis for the lower face, 2 * axis + 1 for the
+/// Grows every cell along kAxis (both directions) from the boxes in grid.cells into `out`.
+/// `can_grow` holds one bit per face (bit 2 * kAxis for the lower face, 2 * kAxis + 1 for the
 /// upper one) and cell; a face whose bit is clear stays where it is, and the bit is cleared when
 /// the face did not grow by the full depth of its neighbours (blocked by the grid boundary or by
 /// a list): the same neighbours still own the voxels past that face in later passes, so it would
 /// mostly be blocked again. The bits only save work: clearing one never makes the grid wrong.
-template <typename Exec>
+template <int kAxis, typename Exec>
 void expand_axis(Exec& exec, const GridArrays<Exec>& grid, Cell* out, std::uint8_t* can_grow,
-                 int axis, bool partial, std::int32_t growth_quantum) {
+                 bool partial, std::int32_t growth_quantum) {
   const ExpandView view{grid.info,        grid.entries.data(),   grid.cells.data(),
                         grid.refs.data(), grid.triangles.data(), partial,
                         growth_quantum};
-  const auto down_bit = std::uint8_t(1u << (2 * axis)), up_bit = std::uint8_t(2u << (2 * axis));
+  constexpr auto down_bit = std::uint8_t(1u << (2 * kAxis)),
+                 up_bit = std::uint8_t(2u << (2 * kAxis));
   exec.for_each("expand cells", grid.info.num_cells, [=] IRGRID_HD(std::size_t i) {
     const Cell snapshot = view.cells[i];
     Cell cell = snapshot;
@@ -39,13 +40,13 @@ void expand_axis(Exec& exec, const GridArrays<Exec>& grid, Cell* out, std::uint8
     // Both directions read the snapshot box; the two slabs are disjoint and each is safe on its
     // own, so their union is too.
     if (faces & up_bit) {
-      const FaceGrowth up = face_growth(view, snapshot, axis, +1);
-      cell.hi[axis] += up.voxels;
+      const FaceGrowth up = face_growth<kAxis, +1>(view, snapshot);
+      cell.hi[kAxis] += up.voxels;
       if (!up.may_grow_further) faces = std::uint8_t(faces & ~up_bit);
     }
     if (faces & down_bit) {
-      const FaceGrowth down = face_growth(view, snapshot, axis, -1);
-      cell.lo[axis] -= down.voxels;
+      const FaceGrowth down = face_growth<kAxis, -1>(view, snapshot);
+      cell.lo[kAxis] -= down.voxels;
       if (!down.may_grow_further) faces = std::uint8_t(faces & ~down_bit);
     }
     can_grow[i] = faces;
@@ -77,8 +78,12 @@ void expand_cells(Exec& exec, GridArrays<Exec>& grid, int passes, bool partial,
   exec.for_each("expand flags", count, [=] IRGRID_HD(std::size_t i) { d_can_grow[i] = 0x3f; });
   for (int pass = 0; pass < passes; ++pass)
     for (int axis = 0; axis < 3; ++axis) {
-      expand_detail::expand_axis(exec, grid, back.data(), d_can_grow, axis, partial,
-                                 growth_quantum);
+      if (axis == 0)
+        expand_detail::expand_axis<0>(exec, grid, back.data(), d_can_grow, partial, growth_quantum);
+      else if (axis == 1)
+        expand_detail::expand_axis<1>(exec, grid, back.data(), d_can_grow, partial, growth_quantum);
+      else
+        expand_detail::expand_axis<2>(exec, grid, back.data(), d_can_grow, partial, growth_quantum);
       std::swap(grid.cells, back);  // the boxes just written are the next step's snapshot
     }
 }

@@ -62,101 +62,133 @@ IRGRID_HD inline std::uint32_t lower_bound_ref(const std::uint32_t* refs, std::u
   return first;
 }
 
-/// The largest growth d in [0, limit] of cell c's face on `axis` (direction +1: the upper face,
+/// floor(x) for x within the int32 range, exact, without floorf: x86-64's baseline has no
+/// rounding instruction, and this runs for every extra triangle of every face.
+IRGRID_HD inline std::int32_t floor_to_int(float x) {
+  const std::int32_t truncated = std::int32_t(x);
+  return float(truncated) > x ? truncated - 1 : truncated;
+}
+
+/// A box's bounds, per axis: `lo(a)`, `hi(a)`.
+struct StoredBounds {
+  const BoxF& box;
+  IRGRID_HD float lo(int a) const { return box.lo[a]; }
+  IRGRID_HD float hi(int a) const { return box.hi[a]; }
+};
+
+/// A triangle's box bounds, each computed when asked (the same values as triangle_box): most
+/// extra triangles are settled by their bound along the axis of growth alone.
+struct TriangleBounds {
+  const TriangleVertices& t;
+  IRGRID_HD float lo(int a) const { return min3(t.p0[a], t.p1[a], t.p2[a]); }
+  IRGRID_HD float hi(int a) const { return max3(t.p0[a], t.p1[a], t.p2[a]); }
+};
+
+/// The largest growth d in [0, limit] of cell c's face on kAxis (kDirection +1: the upper face,
 /// -1: the lower one) that keeps the grown slab more than the padding away from `box` (the box
 /// of a triangle missing from c's list). Conservative: the float floor may cost a voxel, never
-/// admit one too many, because every candidate plane is checked with the doubled margin.
-IRGRID_HD inline std::int32_t growth_before_box(const GridInfo& info, const Cell& c, int axis,
-                                                int direction, const BoxF& box,
-                                                std::int32_t limit) {
+/// admit one too many, because every candidate plane is checked with the doubled margin. The
+/// axis and direction are template parameters so that every coordinate is picked at compile
+/// time: this runs for every extra triangle of every neighbour of every face.
+template <int kAxis, int kDirection, typename Bounds>
+IRGRID_HD inline std::int32_t growth_before_box(const GridInfo& info, const Cell& c,
+                                                const Bounds& box, std::int32_t limit) {
   const float margin = 2.f * info.padding;
-  for (int k = 1; k < 3; ++k) {
-    const int b = (axis + k) % 3;
-    // Apart from the face's cross-section on a face axis: the triangle cannot reach the slab.
-    // (Written so that a NaN box falls through to the cap below, which then answers 0.)
-    if (box.lo[b] - margin > voxel_to_world(info, b, c.hi[b]) ||
-        box.hi[b] + margin < voxel_to_world(info, b, c.lo[b]))
-      return limit;
-  }
-  if (direction > 0) {
+  // Along the axis first: a triangle beyond the reach of the full growth cannot cap it, whatever
+  // the cross-section test below would say, so most far triangles need one bound only.
+  std::int32_t grown;
+  if (kDirection > 0) {
     // The far plane P = hi + d must stay below box.lo - padding: start from the voxel holding
     // that coordinate and step back while the check fails.
-    const std::int32_t face = c.hi[axis];
-    const float first =
-        floorf((box.lo[axis] - margin - info.box_lo[axis]) * info.inv_voxel_size[axis]);
-    std::int32_t plane =
-        std::int32_t(min_fast(max_fast(first, float(face)), float(face + limit)));  // NaN -> face
-    while (plane > face && !(voxel_to_world(info, axis, plane) + margin < box.lo[axis]))
+    const std::int32_t face = c.hi[kAxis];
+    const float first = (box.lo(kAxis) - margin - info.box_lo[kAxis]) * info.inv_voxel_size[kAxis];
+    // floor(first) clamped to [face, face + limit] (NaN -> face); the bounds are integers, so
+    // clamping first gives the same plane.
+    std::int32_t plane = floor_to_int(min_fast(max_fast(first, float(face)), float(face + limit)));
+    while (plane > face && !(voxel_to_world(info, kAxis, plane) + margin < box.lo(kAxis)))
       --plane;
-    return plane - face;
+    grown = plane - face;
+  } else {
+    // The far plane P = lo - d must stay above box.hi + padding.
+    const std::int32_t face = c.lo[kAxis];
+    const float first = (box.hi(kAxis) + margin - info.box_lo[kAxis]) * info.inv_voxel_size[kAxis];
+    // floor(first) + 1 clamped to [face - limit, face] (NaN -> face), clamped before the floor.
+    std::int32_t plane =
+        floor_to_int(max_fast(min_fast(first, float(face - 1)), float(face - limit - 1))) + 1;
+    while (plane < face && !(voxel_to_world(info, kAxis, plane) - margin > box.hi(kAxis)))
+      ++plane;
+    grown = face - plane;
   }
-  // The far plane P = lo - d must stay above box.hi + padding.
-  const std::int32_t face = c.lo[axis];
-  const float first =
-      floorf((box.hi[axis] + margin - info.box_lo[axis]) * info.inv_voxel_size[axis]) + 1.f;
-  std::int32_t plane =
-      std::int32_t(max_fast(min_fast(first, float(face)), float(face - limit)));  // NaN -> face
-  while (plane < face && !(voxel_to_world(info, axis, plane) - margin > box.hi[axis]))
-    ++plane;
-  return face - plane;
+  if (grown == limit) return limit;
+  // Apart from the face's cross-section on a face axis: the triangle cannot reach the slab.
+  // (Written so that a NaN box keeps the cap above, which is then 0.)
+  constexpr int kRow = (kAxis + 1) % 3, kColumn = (kAxis + 2) % 3;
+  if (box.lo(kRow) - margin > voxel_to_world(info, kRow, c.hi[kRow]) ||
+      box.hi(kRow) + margin < voxel_to_world(info, kRow, c.lo[kRow]) ||
+      box.lo(kColumn) - margin > voxel_to_world(info, kColumn, c.hi[kColumn]) ||
+      box.hi(kColumn) + margin < voxel_to_world(info, kColumn, c.lo[kColumn]))
+    return limit;
+  return grown;
 }
 
 /// The largest growth in [0, limit] that neighbour n's list allows cell c: limit when n's list
 /// is a subset of c's; otherwise 0 in subset mode, and in partial mode the cap set by the
 /// boxes of n's extra triangles. Both lists are sorted, so one binary search per reference of n,
 /// each starting after the previous match, finds the extras.
+template <int kAxis, int kDirection>
 IRGRID_HD inline std::int32_t growth_allowed_by_list(const ExpandView& view, const Cell& c,
-                                                     const Cell& n, int axis, int direction,
-                                                     std::int32_t limit) {
+                                                     const Cell& n, std::int32_t limit) {
   // A longer list cannot be a subset; partial mode still needs the extras' boxes.
   if (!view.partial && n.end - n.begin > c.end - c.begin) return 0;
   std::uint32_t from = c.begin;
   for (std::uint32_t r = n.begin; r < n.end && limit > 0; ++r) {
     const std::uint32_t id = view.refs[r];
-    from = lower_bound_ref(view.refs, from, c.end, id);
+    // Searched only when the id lies past c's next reference.
+    if (from < c.end && view.refs[from] < id)
+      from = lower_bound_ref(view.refs, from + 1, c.end, id);
     if (from < c.end && view.refs[from] == id) {
       ++from;
       continue;
     }
     if (!view.partial) return 0;
-    const std::int32_t cap =
-        growth_before_box(view.info, c, axis, direction, triangle_box(view.triangles[id]), limit);
+    const std::int32_t cap = growth_before_box<kAxis, kDirection>(
+        view.info, c, TriangleBounds{view.triangles[id]}, limit);
     // Rounding down only shrinks the slab, and a cap below one quantum ends the scan early.
     if (cap < limit) limit = cap & ~(view.growth_quantum - 1);
   }
   return limit;
 }
 
-/// How far cell c (its snapshot exit box) may grow through its face on `axis` in `direction`
+/// How far cell c (its snapshot exit box) may grow through its face on kAxis in kDirection
 /// (+1 or -1). Walks the face in rows of tiles: each tile starts at a voxel just outside the
 /// face, whose owner N is found in the voxel map, and spans N's current exit box (clamped to the
 /// face) along the row; a row is as tall as its shortest tile. Every tile thus lies inside one
 /// neighbour's exit box, which the argument at the top of this file needs.
-IRGRID_HD inline FaceGrowth face_growth(const ExpandView& view, const Cell& c, int axis,
-                                        int direction) {
-  const std::int32_t outside = direction > 0 ? c.hi[axis] : c.lo[axis] - 1;
-  if (outside < 0 || outside >= view.info.virtual_dims[axis]) return {0, false};
-  const int row_axis = (axis + 1) % 3, column_axis = (axis + 2) % 3;
+template <int kAxis, int kDirection>
+IRGRID_HD inline FaceGrowth face_growth(const ExpandView& view, const Cell& c) {
+  const std::int32_t outside = kDirection > 0 ? c.hi[kAxis] : c.lo[kAxis] - 1;
+  if (outside < 0 || outside >= view.info.virtual_dims[kAxis]) return {0, false};
+  constexpr int kRow = (kAxis + 1) % 3, kColumn = (kAxis + 2) % 3;
   std::int32_t depth = kMaxVirtualResolution;  // min over neighbours of their box's depth
   std::int32_t allowed = depth;                // min over neighbours of what their lists allow
   Voxel at{};
-  at[axis] = outside;
-  for (std::int32_t j = c.lo[column_axis]; j < c.hi[column_axis] && allowed > 0;) {
-    std::int32_t row_end = c.hi[column_axis];
-    for (std::int32_t i = c.lo[row_axis]; i < c.hi[row_axis] && allowed > 0;) {
-      at[row_axis] = i;
-      at[column_axis] = j;
+  at[kAxis] = outside;
+  for (std::int32_t j = c.lo[kColumn]; j < c.hi[kColumn] && allowed > 0;) {
+    std::int32_t row_end = c.hi[kColumn];
+    for (std::int32_t i = c.lo[kRow]; i < c.hi[kRow] && allowed > 0;) {
+      at[kRow] = i;
+      at[kColumn] = j;
       const Cell n = view.cells[lookup_cell(view.info, view.entries, at)];
       // An owner that misses its own voxel means an inconsistent map: give up, never spin.
-      if (n.hi[row_axis] <= i || n.hi[column_axis] <= j) return {0, false};
+      if (n.hi[kRow] <= i || n.hi[kColumn] <= j) return {0, false};
       const std::int32_t n_depth =
-          direction > 0 ? n.hi[axis] - c.hi[axis] : c.lo[axis] - n.lo[axis];
+          kDirection > 0 ? n.hi[kAxis] - c.hi[kAxis] : c.lo[kAxis] - n.lo[kAxis];
       depth = n_depth < depth ? n_depth : depth;
       const std::int32_t limit = allowed < depth ? allowed : depth;
-      allowed = growth_allowed_by_list(view, c, n, axis, direction, limit);
+      allowed = growth_allowed_by_list<kAxis, kDirection>(view, c, n, limit);
       // n's exit box holds its entry box, which holds the voxel at (i, j): both advance.
-      i = n.hi[row_axis] < c.hi[row_axis] ? n.hi[row_axis] : c.hi[row_axis];
-      row_end = n.hi[column_axis] < row_end ? n.hi[column_axis] : row_end;
+      i = n.hi[kRow] < c.hi[kRow] ? n.hi[kRow] : c.hi[kRow];
+      row_end = n.hi[kColumn] < row_end ? n.hi[kColumn] : row_end;
     }
     j = row_end;
   }
