@@ -302,6 +302,19 @@ GridInfo unit_grid(float padding) {
   return info;
 }
 
+TEST(GridExpandFace, FloorToIntIsExactOnBothSidesOfZero) {
+  using expand_detail::floor_to_int;
+  EXPECT_EQ(floor_to_int(2.7f), 2);
+  EXPECT_EQ(floor_to_int(3.f), 3);
+  EXPECT_EQ(floor_to_int(0.f), 0);
+  EXPECT_EQ(floor_to_int(-0.f), 0);
+  EXPECT_EQ(floor_to_int(-0.5f), -1);
+  EXPECT_EQ(floor_to_int(-1.f), -1);
+  EXPECT_EQ(floor_to_int(-1.0000001f), -2);
+  EXPECT_EQ(floor_to_int(0.99999994f), 0);
+  EXPECT_EQ(floor_to_int(16777215.f), 16777215);
+}
+
 TEST(GridExpandFace, PartialGrowthStopsBeforeTheFirstExtraTriangle) {
   const GridInfo info = unit_grid(1e-3f);
   const Cell c{{2, 2, 2}, 0, {4, 4, 4}, 0};

@@ -133,8 +133,9 @@ IRGRID_HD inline std::int32_t growth_before_box(const GridInfo& info, const Cell
 
 /// The largest growth in [0, limit] that neighbour n's list allows cell c: limit when n's list
 /// is a subset of c's; otherwise 0 in subset mode, and in partial mode the cap set by the
-/// boxes of n's extra triangles. Both lists are sorted, so one binary search per reference of n,
-/// each starting after the previous match, finds the extras.
+/// boxes of n's extra triangles. Both lists are sorted, so one pass over n's list finds the
+/// extras, with a binary search in c's list (from the last position on) only for references
+/// past c's next one.
 template <int kAxis, int kDirection>
 IRGRID_HD inline std::int32_t growth_allowed_by_list(const ExpandView& view, const Cell& c,
                                                      const Cell& n, std::int32_t limit) {
