@@ -38,6 +38,8 @@ struct BuildConfig {
   /// Baselines built from the same phases: split every top cell fully to its depth (two-level
   /// grid, Kalojanov et al. 2011) or not at all (uniform grid); merging and expansion off.
   enum class Shape { irregular, two_level, uniform } shape = Shape::irregular;
+
+  friend bool operator==(const BuildConfig&, const BuildConfig&) = default;
 };
 
 }  // namespace irgrid
