@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
+#include <memory>
 
 #include <fmt/format.h>
 
@@ -97,7 +98,8 @@ void timed_build(const Scene& scene, int repeat, Contender& c) {
              c.result.backend, c.result.build.build_ms, times.size());
 }
 
-BenchRun measure(const Scene& scene, const ReferenceTracer& reference,
+/// `reference` may be null when o.validate is 0.
+BenchRun measure(const Scene& scene, const ReferenceTracer* reference,
                  const Accelerator& accelerator, std::span<const Ray> rays, Query query,
                  const BenchOptions& o, BenchRun run) {
   std::vector<Hit> hits(rays.size());
@@ -124,8 +126,8 @@ BenchRun measure(const Scene& scene, const ReferenceTracer& reference,
     run.cells_per_ray = cells / double(rays.size());
     run.tests_per_ray = tests / double(rays.size());
   }
-  if (o.validate > 0) {
-    const auto validation = validate_hits(reference, scene, rays, hits, query, o.validate);
+  if (o.validate > 0 && reference) {
+    const auto validation = validate_hits(*reference, scene, rays, hits, query, o.validate);
     run.checked = validation.checked;
     run.mismatches = validation.mismatches;
     for (const auto& example : validation.examples)
@@ -170,7 +172,7 @@ const Accelerator& secondary_ray_source(const Scene& scene,
 
 /// Every contender traces the same rays: secondary rays come from the primary hits of one fixed
 /// structure (secondary_ray_source).
-void run_standard_kinds(const Scene& scene, const ReferenceTracer& reference, const BenchOptions& o,
+void run_standard_kinds(const Scene& scene, const ReferenceTracer* reference, const BenchOptions& o,
                         std::vector<Contender>& contenders) {
   const auto cameras = scene_views(scene, o.views_file);
   std::vector<RayKind> kinds;
@@ -201,14 +203,16 @@ int run_bench(BenchOptions o) {
   auto contenders = parse_contenders(o);
   for (auto& c : contenders)
     timed_build(scene, o.build_repeat, c);
-  const ReferenceTracer reference(scene);
+  // The double-precision reference is built only to validate (on Crown it takes seconds).
+  std::unique_ptr<ReferenceTracer> reference;
+  if (o.validate > 0) reference = std::make_unique<ReferenceTracer>(scene);
   if (!o.rays_file.empty()) {
     const auto rays = read_rays(o.rays_file, parse_ray_format(o.format));
     for (auto& c : contenders)
-      c.result.runs.push_back(measure(scene, reference, *c.accelerator, rays,
+      c.result.runs.push_back(measure(scene, reference.get(), *c.accelerator, rays,
                                       o.any_hit ? Query::any : Query::closest, o, {"file", 0}));
   } else {
-    run_standard_kinds(scene, reference, o, contenders);
+    run_standard_kinds(scene, reference.get(), o, contenders);
   }
   std::vector<BenchResult> results;
   for (auto& c : contenders)
