@@ -98,7 +98,7 @@ void timed_build(const Scene& scene, int repeat, Contender& c) {
              c.result.backend, c.result.build.build_ms, times.size());
 }
 
-/// `reference` may be null when o.validate is 0.
+/// Validates o.validate rays against `reference`, which is null when o.validate is 0.
 BenchRun measure(const Scene& scene, const ReferenceTracer* reference,
                  const Accelerator& accelerator, std::span<const Ray> rays, Query query,
                  const BenchOptions& o, BenchRun run) {
@@ -126,7 +126,7 @@ BenchRun measure(const Scene& scene, const ReferenceTracer* reference,
     run.cells_per_ray = cells / double(rays.size());
     run.tests_per_ray = tests / double(rays.size());
   }
-  if (o.validate > 0 && reference) {
+  if (reference) {
     const auto validation = validate_hits(*reference, scene, rays, hits, query, o.validate);
     run.checked = validation.checked;
     run.mismatches = validation.mismatches;

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <type_traits>
 #include <utility>
 
 #include "core/build/cells.h"
@@ -76,16 +77,16 @@ void expand_cells(Exec& exec, GridArrays<Exec>& grid, int passes, bool partial,
   auto can_grow = exec.template allocate<std::uint8_t>(count);
   std::uint8_t* d_can_grow = can_grow.data();
   exec.for_each("expand flags", count, [=] IRGRID_HD(std::size_t i) { d_can_grow[i] = 0x3f; });
-  for (int pass = 0; pass < passes; ++pass)
-    for (int axis = 0; axis < 3; ++axis) {
-      if (axis == 0)
-        expand_detail::expand_axis<0>(exec, grid, back.data(), d_can_grow, partial, growth_quantum);
-      else if (axis == 1)
-        expand_detail::expand_axis<1>(exec, grid, back.data(), d_can_grow, partial, growth_quantum);
-      else
-        expand_detail::expand_axis<2>(exec, grid, back.data(), d_can_grow, partial, growth_quantum);
-      std::swap(grid.cells, back);  // the boxes just written are the next step's snapshot
-    }
+  const auto grow_along = [&](auto axis) {
+    expand_detail::expand_axis<decltype(axis)::value>(exec, grid, back.data(), d_can_grow, partial,
+                                                      growth_quantum);
+    std::swap(grid.cells, back);  // the boxes just written are the next step's snapshot
+  };
+  for (int pass = 0; pass < passes; ++pass) {
+    grow_along(std::integral_constant<int, 0>());
+    grow_along(std::integral_constant<int, 1>());
+    grow_along(std::integral_constant<int, 2>());
+  }
 }
 
 }  // namespace irgrid
