@@ -427,7 +427,8 @@ struct LaneWalk {
       entry[g] = V::template gather<4>(zero, grid.entries, top, active);
       level_shift[g] = V::splat(info.shift);
       inner[g] = V::both(active, V::greater(V::template shift_right_logical<30>(entry[g]), zero));
-      // Only empty top cells have an empty radius, and their map entries are leaves.
+      // Top cells with triangles store radius 0, so the radii are read for every active lane:
+      // masking them by the entry would make this read wait for the entry's.
       I radius = zero;
       if (grid.empty_radii) {
         const Lanes& s = groups[g].s;
@@ -436,7 +437,7 @@ struct LaneWalk {
                                    V::bit_and_not(V::load(s.ascending[2]), V::splat(4)));
         const I index = V::add(V::template shift_left<3>(top), octant);
         radius = V::bit_and(
-            V::template gather<1>(zero, grid.empty_radii, index, V::but_not(inner[g], active)),
+            V::template gather<1>(zero, grid.empty_radii, index, active),
             V::splat(0xff));
       }
       V::store(groups[g].c.empty_radius, radius);
@@ -461,6 +462,15 @@ struct LaneWalk {
     }
     for (int g = 0; g < G; ++g)
       load_cells(cells, V::bit_and(entry[g], target_bits), V::lanes(groups[g].active), groups[g].c);
+    // The reference lists are read next, one group after another: requested here, the lists of
+    // all groups are in flight at once. (Idle lanes request one too: that costs less than
+    // picking the active ones.)
+    for (int g = 0; g < G; ++g) {
+      const LaneCells& c = groups[g].c;
+#pragma GCC unroll 16
+      for (int l = 0; l < L; ++l)
+        __builtin_prefetch(grid.refs + std::uint32_t(c.begin[l]));
+    }
   }
 
   /// trace_simd_lanes of cpu/simd_walk.h.
