@@ -564,13 +564,17 @@ struct LaneWalk {
       TestList& list = group.list;
       if (!V::any(V::greater(cell_refs, V::splat(L)))) {
         // The usual round: every cell has at most L references, and all fit the list (L rows
-        // of L). One row per lane, without branches, then the triangles of every listed test
-        // (slots past the size hold earlier, valid ids).
+        // of L). One row per lane whose cell has references (most cells a ray crosses are
+        // empty: skipping their rows beat writing every row without branches on Crown and
+        // Conference), then the triangles of every listed test (slots past the size hold
+        // earlier, valid ids).
         alignas(64) std::int32_t count[L];
         V::store(count, cell_refs);
-#pragma GCC unroll 16
-        for (int l = 0; l < L; ++l)
+        for (std::uint32_t bits = V::bits(V::greater(cell_refs, V::splat(0))); bits != 0;
+             bits &= bits - 1) {
+          const int l = __builtin_ctz(bits);
           list.append_row(l, grid.refs + c.begin[l], count[l], 0);
+        }
         for (int row = 0; row < list.size; row += L) {
 #pragma GCC unroll 16
           for (int k = 0; k < L; ++k)
