@@ -473,6 +473,9 @@ struct LaneWalk {
     }
   }
 
+  /// How many batches of L rays ahead the walk requests the rays it will begin.
+  static constexpr std::size_t kRaysAhead = 4;
+
   /// trace_simd_lanes of cpu/simd_walk.h.
   template <Query kQuery, typename CellT>
   static void trace(const GridView& grid, std::span<const Ray> rays, std::span<Hit> hits,
@@ -494,6 +497,13 @@ struct LaneWalk {
           if (next == rays.size()) break;
           const std::size_t count = rays.size() - next < L ? rays.size() - next : L;
           const std::uint32_t starting = (1u << count) - 1;
+          // The rays a few batches ahead: their lane-wise reads would otherwise wait on memory.
+          const std::size_t ahead = next + kRaysAhead * L;
+          if (ahead < rays.size()) {
+            const char* first = reinterpret_cast<const char*>(rays.data() + ahead);
+            for (std::size_t byte = 0; byte < L * sizeof(Ray); byte += 64)
+              __builtin_prefetch(first + byte);
+          }
           staged_ready =
               V::bits(begin_walks(grid.info, rays.data() + next, staged, V::lanes(starting)));
           for (std::uint32_t slot = 0; slot < count; ++slot) {
