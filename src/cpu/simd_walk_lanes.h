@@ -436,9 +436,8 @@ struct LaneWalk {
                                              V::bit_and_not(V::load(s.ascending[1]), V::splat(2))),
                                    V::bit_and_not(V::load(s.ascending[2]), V::splat(4)));
         const I index = V::add(V::template shift_left<3>(top), octant);
-        radius = V::bit_and(
-            V::template gather<1>(zero, grid.empty_radii, index, active),
-            V::splat(0xff));
+        radius = V::bit_and(V::template gather<1>(zero, grid.empty_radii, index, active),
+                            V::splat(0xff));
       }
       V::store(groups[g].c.empty_radius, radius);
     }
@@ -501,7 +500,9 @@ struct LaneWalk {
           const std::size_t ahead = next + kRaysAhead * L;
           if (ahead < rays.size()) {
             const char* first = reinterpret_cast<const char*>(rays.data() + ahead);
-            for (std::size_t byte = 0; byte < L * sizeof(Ray); byte += 64)
+            const std::size_t bytes =
+                (rays.size() - ahead < L ? rays.size() - ahead : L) * sizeof(Ray);
+            for (std::size_t byte = 0; byte < bytes; byte += 64)
               __builtin_prefetch(first + byte);
           }
           staged_ready =
