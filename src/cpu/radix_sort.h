@@ -8,12 +8,12 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
-#include <memory>
 #include <string>
 #include <type_traits>
 #include <utility>
 #include <vector>
 
+#include "cpu/memory_meter.h"
 #include "irgrid/error.h"
 
 namespace irgrid::detail {
@@ -137,12 +137,13 @@ void radix_sort_pairs(K* keys, V* values, std::size_t n, int key_bits) {
   const BlockPartition blocks(
       n, std::max(radix_min_block_size, (n + radix_max_blocks - 1) / radix_max_blocks));
 
-  auto scratch_keys = std::make_unique_for_overwrite<K[]>(n);
-  auto scratch_values = std::make_unique_for_overwrite<V[]>(n);
+  // Metered like the executor's buffers, so a build's peak counts the scratch too.
+  std::vector<K, MeteredAllocator<K>> scratch_keys(n);
+  std::vector<V, MeteredAllocator<V>> scratch_values(n);
   K* keys_from = keys;
   V* values_from = values;
-  K* keys_to = scratch_keys.get();
-  V* values_to = scratch_values.get();
+  K* keys_to = scratch_keys.data();
+  V* values_to = scratch_values.data();
   std::vector<std::size_t> table;
   for (int shift = 0; shift < key_bits; shift += digit_bits) {
     const int bits = std::min(digit_bits, key_bits - shift);  // last digit may be narrower
