@@ -120,13 +120,17 @@ struct OctreeRule {
     return refs > split_refs && level < count_split_depth;
   }
   /// A count split must separate the node's triangles: the children together may hold at most
-  /// 1.5 times its references. Triangles larger than the children land in several of them, and
+  /// twice its references. Triangles larger than the children land in several of them, and
   /// splitting further only multiplies the references (a fan around a vertex, or long triangles
   /// along a thin cylinder, land in every child on their path, level after level: Conference's
   /// references grew from 0.78 to 1.46 million with a surface-area test alone, for 1.5% fewer
-  /// triangle tests per ray).
+  /// triangle tests per ray). The bound trades the two (docs/benchmarks.md, ninth session):
+  /// at 1.5 times, the teapot in the stadium's spout kept lists of hundreds of long triangles
+  /// (88 tests per view-0 primary ray); at 2 times it takes 45, for 25% more references on
+  /// Conference (+8% memory) and 2% more on Crown; with no bound, 39 tests and 75% more
+  /// references on Conference.
   IRGRID_HD bool count_split_separates(std::uint32_t refs, std::uint32_t child_refs) const {
-    return std::uint64_t(child_refs) * 2 <= std::uint64_t(refs) * 3;
+    return std::uint64_t(child_refs) <= std::uint64_t(refs) * 2;
   }
 };
 
