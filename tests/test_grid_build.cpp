@@ -280,6 +280,18 @@ TEST(OctreeSplit, NodesAboveTheThresholdSplitWhileItSeparatesTheirTriangles) {
   EXPECT_LT(most_references_per_cell(grid), most_references_per_cell(paper_grid) / 2);
 }
 
+// The separation bound: a count split may at most double a node's references (thin tubes of
+// long triangles need that much; docs/benchmarks.md, ninth session), computed without overflow.
+TEST(OctreeSplit, ASplitSeparatesWhileTheChildrenHoldAtMostTwiceTheReferences) {
+  const OctreeRule rule{nullptr, false, 64, 10};
+  EXPECT_TRUE(rule.count_split_separates(100, 100));
+  EXPECT_TRUE(rule.count_split_separates(100, 200));
+  EXPECT_FALSE(rule.count_split_separates(100, 201));
+  EXPECT_FALSE(rule.count_split_separates(100, 800));
+  EXPECT_TRUE(rule.count_split_separates(0xffffffffu, 0xffffffffu));
+  EXPECT_FALSE(rule.count_split_separates(0x7fffffffu, 0xffffffffu));
+}
+
 TEST(OctreeSplit, ThresholdAboveEveryCountGivesThePaperGrid) {
   const Scene scene = load_scene("builtin:sphere:2000");
   BuildConfig paper = testing::initial_grid_config();
