@@ -103,6 +103,17 @@ struct Avx2Lanes {
   static F gather(const float* base, I index, M m) {
     return _mm256_mask_i32gather_ps(_mm256_setzero_ps(), base, index, _mm256_castsi256_ps(m), 4);
   }
+  /// Per lane of `takers`, the lane of `givers` it pairs with: the k-th lowest taker with the
+  /// k-th lowest giver (both hold as many lanes); other lanes hold 0. Built as 4-bit fields of
+  /// one integer, so that nothing goes through memory.
+  static I pair_lanes(std::uint32_t takers, std::uint32_t givers) {
+    std::uint32_t packed = 0;
+    for (; takers != 0; takers &= takers - 1, givers &= givers - 1)
+      packed |= std::uint32_t(__builtin_ctz(givers)) << (4 * __builtin_ctz(takers));
+    const I shifts = _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28);
+    return _mm256_and_si256(_mm256_srlv_epi32(_mm256_set1_epi32(int(packed)), shifts),
+                            _mm256_set1_epi32(15));
+  }
   /// v[index[l]] in lane l.
   static F permute(F v, I index) { return _mm256_permutevar8x32_ps(v, index); }
   static I permute(I v, I index) { return _mm256_permutevar8x32_epi32(v, index); }

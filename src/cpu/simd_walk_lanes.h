@@ -487,7 +487,7 @@ struct LaneWalk {
     const bool counted = !work.empty();
     Group groups[G];
     Lanes staged{};  // walks begun ahead, L rays at a time
-    std::uint32_t staged_ray[L];
+    std::size_t staged_first = 0;    // the ray of slot 0 of `staged`; slot k holds ray + k
     std::uint32_t staged_ready = 0;  // slots of `staged` whose ray enters the grid, not yet taken
     std::size_t next = 0;
     // Gives the lanes of `idle` in `group` the next rays that enter the grid; rays that miss it
@@ -510,8 +510,8 @@ struct LaneWalk {
           }
           staged_ready =
               V::bits(begin_walks(grid.info, rays.data() + next, staged, V::lanes(starting)));
+          staged_first = next;
           for (std::uint32_t slot = 0; slot < count; ++slot) {
-            staged_ray[slot] = std::uint32_t(next + slot);
             if (staged_ready >> slot & 1) continue;
             hits[next + slot] = Hit{};
             if (counted) work[next + slot] = {};
@@ -519,19 +519,24 @@ struct LaneWalk {
           next += count;
           continue;
         }
-        // Pair idle lanes with ready slots in order, then move them all at once.
-        alignas(64) std::int32_t source[L] = {};
-        std::uint32_t taken = 0;
-        while (idle != 0 && staged_ready != 0) {
-          const int l = __builtin_ctz(idle), slot = __builtin_ctz(staged_ready);
-          source[l] = slot;
-          group.ray_of[l] = staged_ray[slot];
-          group.cells_visited[l] = group.triangles_tested[l] = 0;
-          taken |= 1u << l;
-          idle &= idle - 1;
-          staged_ready &= staged_ready - 1;
+        // The k-th idle lane takes the k-th ready slot; all of them move at once, and nothing
+        // is written lane by lane (rows read back whole would wait for such stores).
+        std::uint32_t taken = 0, given = 0;
+        for (std::uint32_t i = idle, r = staged_ready; i != 0 && r != 0; i &= i - 1, r &= r - 1) {
+          taken |= i & (0u - i);
+          given |= r & (0u - r);
         }
-        move_lanes(group.s, staged, V::load(source), V::lanes(taken));
+        const I source = V::pair_lanes(taken, given);
+        const M moving = V::lanes(taken);
+        move_lanes(group.s, staged, source, moving);
+        auto* ray_of = reinterpret_cast<std::int32_t*>(group.ray_of);
+        V::store(ray_of, V::select(moving, V::load(ray_of),
+                                   V::add(V::splat(std::int32_t(staged_first)), source)));
+        V::store(group.cells_visited, V::select(moving, V::load(group.cells_visited), V::splat(0)));
+        V::store(group.triangles_tested,
+                 V::select(moving, V::load(group.triangles_tested), V::splat(0)));
+        idle &= ~taken;
+        staged_ready &= ~given;
         started |= taken;
       }
       return started;
