@@ -27,6 +27,7 @@ std::vector<std::string> available_structures() {
   names.push_back("irregular");
 #if IRGRID_HAS_EMBREE
   names.push_back("embree");
+  names.push_back("embree-packets");
 #endif
   names.push_back("two-level");
   names.push_back("uniform");
@@ -71,10 +72,11 @@ std::unique_ptr<Accelerator> make_accelerator(const Scene& scene, const std::str
     return make_grid_cpu(scene, config, options.on_phase);
   }
 #if IRGRID_HAS_EMBREE
-  if (structure == "embree") {
+  if (structure == "embree" || structure == "embree-packets") {
     if (backend == "cuda" && options.backend == "cuda")
-      throw Error(ErrorCode::invalid_argument, "structure 'embree' runs on the cpu backend only");
-    return make_embree_cpu(scene);
+      throw Error(ErrorCode::invalid_argument,
+                  fmt::format("structure '{}' runs on the cpu backend only", structure));
+    return make_embree_cpu(scene, structure == "embree-packets");
   }
 #endif
   throw Error(ErrorCode::invalid_argument,

@@ -486,7 +486,7 @@ struct LaneWalk {
     const TriangleVertices* triangles = grid.triangles;
     const bool counted = !work.empty();
     Group groups[G];
-    Lanes staged{};  // walks begun ahead, L rays at a time
+    Lanes staged{};                  // walks begun ahead, L rays at a time
     std::size_t staged_first = 0;    // the ray of slot 0 of `staged`; slot k holds ray + k
     std::uint32_t staged_ready = 0;  // slots of `staged` whose ray enters the grid, not yet taken
     std::size_t next = 0;

@@ -14,7 +14,9 @@ std::unique_ptr<Accelerator> make_brute_force_cpu(const Scene& scene);
 std::unique_ptr<Accelerator> make_grid_cpu(const Scene& scene, const BuildConfig& config,
                                            const PhaseObserver& on_phase = {});
 #if IRGRID_HAS_EMBREE
-std::unique_ptr<Accelerator> make_embree_cpu(const Scene& scene);
+/// Embree 3 over the scene; `packets`: traces packets of 8 consecutive rays (rtcIntersect8),
+/// otherwise one ray at a time (rtcIntersect1).
+std::unique_ptr<Accelerator> make_embree_cpu(const Scene& scene, bool packets);
 #endif
 #if IRGRID_HAS_CUDA
 std::unique_ptr<Accelerator> make_brute_force_cuda(const Scene& scene);

@@ -32,7 +32,7 @@ Scene load_scene_reporting(const std::string& spec) {
 
 void add_structure_options(CLI::App* command, StructureOptions& options) {
   command->add_option("--structure", options.structure,
-                      "irregular (default), embree, two-level, uniform or brute");
+                      "irregular (default), embree, embree-packets, two-level, uniform or brute");
   // Checked while parsing, so a missing GPU is reported before a large scene is loaded.
   command->add_option("--backend", options.backend, "cpu, cuda or auto")
       ->capture_default_str()
