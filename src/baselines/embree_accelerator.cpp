@@ -5,6 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
 
@@ -47,8 +48,14 @@ class EmbreeCpu final : public Accelerator {
  public:
   EmbreeCpu(const Scene& scene, bool packets) : packets_(packets) {
     const auto start = std::chrono::steady_clock::now();
-    device_ = rtcNewDevice(nullptr);
-    if (!device_) throw Error(ErrorCode::internal, "embree: rtcNewDevice failed");
+    // IRGRID_EMBREE_CONFIG passes Embree's device configuration through, e.g. "isa=avx2" to
+    // compare with irgrid's AVX2 walk (IRGRID_CPU_WALK=avx2) on an AVX-512 machine.
+    const char* config = std::getenv("IRGRID_EMBREE_CONFIG");
+    device_ = rtcNewDevice(config);
+    if (!device_)
+      throw Error(ErrorCode::internal,
+                  fmt::format("embree: rtcNewDevice failed (IRGRID_EMBREE_CONFIG='{}')",
+                              config ? config : ""));
     rtcSetDeviceMemoryMonitorFunction(device_, &EmbreeCpu::count_bytes, &bytes_);
     scene_ = rtcNewScene(device_);
     rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_MEDIUM);

@@ -27,9 +27,11 @@ enum class SimdIsa {
   avx512,  ///< 16 lanes per group (AVX-512F)
 };
 
-/// Groups of lanes per thread, advanced phase by phase together so that the memory accesses of
-/// one group overlap the work of the others.
-inline constexpr int kSimdWalkGroups = 4;
+/// Rays each thread keeps in flight: groups of lanes (4 of 16 with AVX-512, 8 of 8 with AVX2),
+/// advanced phase by phase together so that the memory accesses of one group overlap the work
+/// of the others. Four groups of 8 left AVX2's walk 5-30% slower on Crown, whose grid waits on
+/// memory most (docs/benchmarks.md, tenth session).
+inline constexpr int kSimdWalkRaysInFlight = 64;
 
 /// Whether this CPU (and its operating system) runs `isa`.
 bool cpu_has(SimdIsa isa);

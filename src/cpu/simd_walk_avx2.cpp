@@ -27,8 +27,8 @@ template <SimdIsa kIsa, Query kQuery, typename CellT>
 void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span<Hit> hits,
                       std::span<RayWork> work) {
   static_assert(kIsa == SimdIsa::avx2);
-  simd::LaneWalk<simd::Avx2Lanes, kSimdWalkGroups>::template trace<kQuery, CellT>(grid, rays, hits,
-                                                                                  work);
+  simd::LaneWalk<simd::Avx2Lanes, kSimdWalkRaysInFlight / simd::Avx2Lanes::kLanes>::template trace<
+      kQuery, CellT>(grid, rays, hits, work);
 }
 
 template void trace_simd_lanes<SimdIsa::avx2, Query::closest, Cell>(const GridView&,

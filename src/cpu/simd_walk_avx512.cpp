@@ -34,8 +34,8 @@ template <SimdIsa kIsa, Query kQuery, typename CellT>
 void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span<Hit> hits,
                       std::span<RayWork> work) {
   static_assert(kIsa == SimdIsa::avx512);
-  simd::LaneWalk<simd::Avx512Lanes, kSimdWalkGroups>::template trace<kQuery, CellT>(grid, rays,
-                                                                                    hits, work);
+  simd::LaneWalk<simd::Avx512Lanes, kSimdWalkRaysInFlight / simd::Avx512Lanes::kLanes>::
+      template trace<kQuery, CellT>(grid, rays, hits, work);
 }
 
 template void trace_simd_lanes<SimdIsa::avx512, Query::closest, Cell>(const GridView&,
