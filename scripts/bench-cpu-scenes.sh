@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The CPU figures of docs/benchmarks.md: for Crytek Sponza, Conference and Crown, the validated run
 # of the irregular grid (all views and ray kinds, 20,000 rays checked per run) and the comparison
-# with Embree and the uniform/two-level grids on the same rays. Writes out/<scene>-*.json|txt.
+# with Embree (one ray at a time and in 8-ray packets) and the uniform/two-level grids on the same
+# rays. Writes out/<scene>-*.json|txt.
 # Usage: bash scripts/bench-cpu-scenes.sh [SCENE_FILE...]   (default: the three shared scenes)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -15,7 +16,7 @@ for scene in "${scenes[@]}"; do
   name=$(basename "$(dirname "$scene")")
   "$build_dir/irgrid" bench "$scene" --validate 20000 --repeat 1 \
     --json "out/$name-validate.json" 2>"out/$name-validate.log" | tee "out/$name-validate.txt"
-  "$build_dir/irgrid" bench "$scene" --compare irregular,embree,two-level,uniform \
+  "$build_dir/irgrid" bench "$scene" --compare irregular,embree,embree-packets,two-level,uniform \
     --width 512 --height 512 --spp 1 --repeat 3 --validate 20000 \
     --json "out/$name-compare.json" 2>"out/$name-compare.log" | tee "out/$name-compare.txt"
 done
