@@ -100,7 +100,7 @@ struct Avx512Lanes {
     return _mm512_mask_i32gather_ps(_mm512_setzero_ps(), m, index, base, 4);
   }
   /// Per lane of `takers`, the lane of `givers` it pairs with: the k-th lowest taker with the
-  /// k-th lowest giver (both hold as many lanes); other lanes hold some lane index.
+  /// k-th lowest giver (both hold as many lanes); other lanes hold 0.
   static I pair_lanes(std::uint32_t takers, std::uint32_t givers) {
     return _mm512_maskz_expand_epi32(M(takers),
                                      _mm512_maskz_compress_epi32(M(givers), lane_index()));
