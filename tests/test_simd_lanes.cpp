@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <numeric>
 #include <random>
 #include <vector>
 
@@ -55,9 +56,8 @@ void expect_pairs(PairLanes pair_lanes, int lanes, std::uint32_t takers, std::ui
 
 /// `count` distinct lanes of `lanes`, at random.
 std::uint32_t random_lanes(std::mt19937& rng, int lanes, int count) {
-  std::vector<int> order(std::size_t(lanes), 0);
-  for (int l = 0; l < lanes; ++l)
-    order[std::size_t(l)] = l;
+  std::vector<int> order(static_cast<std::size_t>(lanes));
+  std::iota(order.begin(), order.end(), 0);
   std::shuffle(order.begin(), order.end(), rng);
   std::uint32_t set = 0;
   for (int k = 0; k < count; ++k)
