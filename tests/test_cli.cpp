@@ -196,6 +196,16 @@ TEST_F(Cli, BuildPrintsStatisticsAndJson) {
   EXPECT_EQ(run("build builtin:cornell --lambda1 -1").code, 2);
 }
 
+TEST_F(Cli, PrimitiveProfileListsTheBuildsPrimitives) {
+  ::setenv("IRGRID_PRIMITIVE_PROFILE", "1", 1);
+  const Result r = run("build builtin:cornell");
+  ::unsetenv("IRGRID_PRIMITIVE_PROFILE");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("primitive split masks"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("primitive expand cells"), std::string::npos) << r.err;
+  EXPECT_EQ(run("build builtin:cornell").err.find("primitive "), std::string::npos);
+}
+
 TEST_F(Cli, CompareRunsEveryStructureOnTheSameRays) {
   const auto [r, json] = run_json(
       "bench builtin:cornell --compare all --kinds primary,ao --views 0 --width 16 --height 16 "
