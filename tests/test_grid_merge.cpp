@@ -337,6 +337,42 @@ TEST_P(GridMerge, AtAlphaOneNoCellHasAMergeLeft) {
     }
 }
 
+// The proposals are computed in batches of CpuExecutor::kLookupBatch cells with their map walks
+// interleaved (merge.h); each must be the one merge_partner finds for its cell alone, and a
+// quiet cell proposes nothing. (All cases but the sphere end in a partial batch.)
+TEST_P(GridMerge, BatchedProposalsEqualSingleCellProposals) {
+  const Grid& grid = merge_case(GetParam()).before;
+  const std::uint32_t n = grid.info.num_cells;
+  CpuExecutor exec;
+  std::vector<std::uint32_t> next(n), prev(n), union_size(n), quiet(n);
+  for (int axis = 0; axis < 3; ++axis) {
+    for (std::uint32_t i = 0; i < n; ++i)
+      quiet[i] = i % 7 == 3 ? 1u << axis : 0u;
+    const std::uint32_t proposals =
+        merge_detail::propose_merges(exec, grid, axis, kCostRatio, kEmptyAspect, next.data(),
+                                     prev.data(), union_size.data(), quiet.data(), true);
+    std::uint32_t expected_proposals = 0;
+    for (std::uint32_t i = 0; i < n; ++i) {
+      std::uint32_t size = 0;
+      const std::uint32_t partner =
+          i % 7 == 3 ? merge_detail::kNoCell
+                     : merge_detail::merge_partner(grid.info, grid.entries.data(),
+                                                   grid.cells.data(), grid.refs.data(), i, axis,
+                                                   kCostRatio, kEmptyAspect, size);
+      ASSERT_EQ(next[i], partner) << "cell " << i << " axis " << axis;
+      if (partner == merge_detail::kNoCell) {
+        EXPECT_NE(quiet[i] & (1u << axis), 0u) << "cell " << i << " is quiet now";
+        continue;
+      }
+      ++expected_proposals;
+      EXPECT_EQ(union_size[i], size);
+      EXPECT_EQ(prev[partner], i);
+    }
+    EXPECT_EQ(proposals, expected_proposals);
+    EXPECT_GT(proposals, 0u);
+  }
+}
+
 /// The largest aspect ratio (longest over shortest side, world units) among empty cells.
 double widest_empty_cell(const Grid& grid) {
   double widest = 0;

@@ -30,6 +30,10 @@ namespace irgrid {
 /// made from one thread at a time and never from inside another primitive's body.
 class CpuExecutor {
  public:
+  /// Cells a latency-bound body handles together (see merge propose): walks through the voxel
+  /// map are chains of dependent loads, and a core keeps the loads of several walks in flight.
+  static constexpr std::uint32_t kLookupBatch = 16;
+
   /// Memory the primitives work on; host vectors here, device buffers on the CUDA executor.
   /// Algorithm code reaches elements only through the executor's calls or, inside a
   /// for_each body, through raw pointers taken with buffer.data() beforehand. Their bytes are

@@ -58,6 +58,9 @@ inline unsigned launch_blocks(std::size_t n, unsigned threads) {
 /// selection counts) wait for the stream; the rest only enqueue work.
 class CudaExecutor {
  public:
+  /// One cell per thread: warps hide the latency of voxel-map walks (CpuExecutor::kLookupBatch).
+  static constexpr std::uint32_t kLookupBatch = 1;
+
   template <typename T>
   using Buffer = cuda::DeviceBuffer<T>;
 

@@ -65,37 +65,58 @@ IRGRID_HD inline bool empty_merge_keeps_shape(const GridInfo& info, const std::i
   return float(hi[axis] - lo[axis]) * info.voxel_size[axis] <= empty_aspect * thinnest;
 }
 
-/// The cell that `c1` proposes to merge with along `axis` (kNoCell if none), and the size of the
-/// union of their lists in `union_size` when there is one. The partner owns the voxel just past
-/// c1's upper face, must start on that face and have c1's cross-section, and the merged cell must
-/// cost no more than the two: SA(c1 ∪ c2)(n12 + C) <= SA(c1)(n1 + C) + SA(c2)(n2 + C). Two empty
-/// cells must also pass empty_merge_keeps_shape.
-IRGRID_HD inline std::uint32_t merge_partner(const GridInfo& info, const Entry* entries,
-                                             const Cell* cells, const std::uint32_t* refs,
-                                             std::uint32_t c1, int axis, float cost_ratio,
-                                             float empty_aspect, std::uint32_t& union_size) {
-  const Cell a = cells[c1];
-  if (a.hi[axis] >= info.virtual_dims[axis]) return kNoCell;
-  Voxel past{a.lo[0], a.lo[1], a.lo[2]};
+/// The voxel just past the upper face of cell `a` along `axis`, where a merge partner would have
+/// its lower corner; false when that face lies on the grid's boundary.
+IRGRID_HD inline bool voxel_past_upper_face(const GridInfo& info, const Cell& a, int axis,
+                                            Voxel& past) {
+  if (a.hi[axis] >= info.virtual_dims[axis]) return false;
+  past = Voxel{a.lo[0], a.lo[1], a.lo[2]};
   past[axis] = a.hi[axis];
-  const std::uint32_t c2 = lookup_cell(info, entries, past);
+  return true;
+}
+
+/// Whether cell `c1` (box `a`) proposes to merge with c2, the owner of the voxel past its upper
+/// face along `axis`, and the size of the union of their lists in `union_size` when it does.
+/// c2 must start on that face and have a's cross-section, and the merged cell must cost no more
+/// than the two: SA(c1 ∪ c2)(n12 + C) <= SA(c1)(n1 + C) + SA(c2)(n2 + C). Two empty cells must
+/// also pass empty_merge_keeps_shape.
+IRGRID_HD inline bool proposes_merge(const GridInfo& info, const Cell* cells,
+                                     const std::uint32_t* refs, const Cell& a, std::uint32_t c2,
+                                     int axis, float cost_ratio, float empty_aspect,
+                                     std::uint32_t& union_size) {
   const Cell b = cells[c2];
-  if (b.lo[axis] != a.hi[axis]) return kNoCell;
+  if (b.lo[axis] != a.hi[axis]) return false;
   for (int other = 0; other < 3; ++other)
-    if (other != axis && (b.lo[other] != a.lo[other] || b.hi[other] != a.hi[other])) return kNoCell;
+    if (other != axis && (b.lo[other] != a.lo[other] || b.hi[other] != a.hi[other])) return false;
   const std::uint32_t n1 = a.end - a.begin, n2 = b.end - b.begin;
   if (n1 == 0 && n2 == 0 && !empty_merge_keeps_shape(info, a.lo, b.hi, axis, empty_aspect))
-    return kNoCell;
+    return false;
   const float budget = half_area(info, a.lo, a.hi) * (float(n1) + cost_ratio) +
                        half_area(info, b.lo, b.hi) * (float(n2) + cost_ratio);
   const float merged_area = half_area(info, a.lo, b.hi);
   // The union holds at least the longer list: if even that is too expensive, skip the walk.
   const std::uint32_t lower_bound = n1 > n2 ? n1 : n2;
-  if (merged_area * (float(lower_bound) + cost_ratio) > budget) return kNoCell;
+  if (merged_area * (float(lower_bound) + cost_ratio) > budget) return false;
   const std::uint32_t n12 = sorted_union_size(refs + a.begin, n1, refs + b.begin, n2);
-  if (merged_area * (float(n12) + cost_ratio) > budget) return kNoCell;
+  if (merged_area * (float(n12) + cost_ratio) > budget) return false;
   union_size = n12;
-  return c2;
+  return true;
+}
+
+/// The cell that `c1` proposes to merge with along `axis` (kNoCell if none), and the size of the
+/// union of their lists in `union_size` when there is one (see proposes_merge). The one-cell
+/// form of what propose_merges computes for batches of cells.
+IRGRID_HD inline std::uint32_t merge_partner(const GridInfo& info, const Entry* entries,
+                                             const Cell* cells, const std::uint32_t* refs,
+                                             std::uint32_t c1, int axis, float cost_ratio,
+                                             float empty_aspect, std::uint32_t& union_size) {
+  const Cell a = cells[c1];
+  Voxel past{};
+  if (!voxel_past_upper_face(info, a, axis, past)) return kNoCell;
+  const std::uint32_t c2 = lookup_cell(info, entries, past);
+  return proposes_merge(info, cells, refs, a, c2, axis, cost_ratio, empty_aspect, union_size)
+             ? c2
+             : kNoCell;
 }
 
 /// Proposals of one sweep: next[c] (kNoCell if none), union_size[c] and prev[next[c]] = c (a
@@ -110,15 +131,37 @@ std::uint32_t propose_merges(Exec& exec, const GridArrays<Exec>& grid, int axis,
   const Entry* entries = grid.entries.data();
   const Cell* cells = grid.cells.data();
   const std::uint32_t* refs = grid.refs.data();
-  const std::uint32_t bit = 1u << axis;
-  exec.for_each("merge propose", info.num_cells, [=] IRGRID_HD(std::size_t i) {
-    std::uint32_t size = 0;
-    next[i] = (quiet[i] & bit) != 0 ? kNoCell
-                                    : merge_partner(info, entries, cells, refs, std::uint32_t(i),
-                                                    axis, cost_ratio, empty_aspect, size);
-    if (track && next[i] == kNoCell) quiet[i] |= bit;
-    union_size[i] = size;
-    prev[i] = kNoCell;
+  const std::uint32_t bit = 1u << axis, n = info.num_cells;
+  // Each body proposes for a batch of cells, walking their voxel-map lookups side by side: each
+  // walk is a chain of dependent loads, and the walks of a batch are in flight together.
+  constexpr std::uint32_t kBatch = Exec::kLookupBatch;
+  exec.for_each("merge propose", (n + kBatch - 1) / kBatch, [=] IRGRID_HD(std::size_t b) {
+    const auto first = std::uint32_t(b * kBatch);
+    const std::uint32_t count = n - first < kBatch ? n - first : kBatch;
+    std::uint32_t walking[kBatch], owners[kBatch];
+    Voxel past[kBatch];
+    std::uint32_t walks = 0;
+    for (std::uint32_t k = 0; k < count; ++k) {
+      const std::uint32_t i = first + k;
+      next[i] = kNoCell;
+      union_size[i] = 0;
+      prev[i] = kNoCell;
+      if ((quiet[i] & bit) == 0 && voxel_past_upper_face(info, cells[i], axis, past[walks]))
+        walking[walks++] = i;
+    }
+    lookup_cells<kBatch>(info, entries, past, walks, owners);
+    for (std::uint32_t w = 0; w < walks; ++w) {
+      const std::uint32_t i = walking[w];
+      std::uint32_t size = 0;
+      if (proposes_merge(info, cells, refs, cells[i], owners[w], axis, cost_ratio, empty_aspect,
+                         size)) {
+        next[i] = owners[w];
+        union_size[i] = size;
+      }
+    }
+    if (track)
+      for (std::uint32_t k = 0; k < count; ++k)
+        if (next[first + k] == kNoCell) quiet[first + k] |= bit;
   });
   exec.for_each("merge link", info.num_cells, [=] IRGRID_HD(std::size_t i) {
     if (next[i] != kNoCell) prev[next[i]] = std::uint32_t(i);

@@ -138,4 +138,27 @@ IRGRID_HD inline std::uint32_t lookup_cell(const GridInfo& info, const Entry* en
   return entry.index();
 }
 
+/// lookup_cell for voxels[0, count) (count <= kMax), into owners: the walks advance one map level
+/// at a time, all of them in turn, so that their dependent loads are in flight together.
+template <std::uint32_t kMax>
+IRGRID_HD inline void lookup_cells(const GridInfo& info, const Entry* entries, const Voxel* voxels,
+                                   std::uint32_t count, std::uint32_t* owners) {
+  Entry entry[kMax];
+  std::int32_t level_shift[kMax];
+  for (std::uint32_t k = 0; k < count; ++k) {
+    entry[k] = entries[top_entry_index(info, voxels[k])];
+    level_shift[k] = info.shift;
+  }
+  for (bool descending = true; descending;) {
+    descending = false;
+    for (std::uint32_t k = 0; k < count; ++k)
+      if (entry[k].log_dim() != 0) {
+        entry[k] = entries[child_entry_index(entry[k], voxels[k], level_shift[k])];
+        descending = true;
+      }
+  }
+  for (std::uint32_t k = 0; k < count; ++k)
+    owners[k] = entry[k].index();
+}
+
 }  // namespace irgrid
