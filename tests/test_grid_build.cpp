@@ -55,6 +55,29 @@ TEST_P(GridBuild, VoxelMapReturnsTheCellContainingEachVoxel) {
   }
 }
 
+TEST_P(GridBuild, BatchedLookupsEqualSingleLookups) {
+  // lookup_cells interleaves the map walks of a batch; every batch size up to its bound must
+  // give each voxel the owner lookup_cell finds, whatever depths the walks in a batch reach.
+  const auto grid = build_test_grid(load_scene(GetParam()));
+  const GridInfo& info = grid.info;
+  Pcg32 rng;
+  rng.seed(23);
+  constexpr std::uint32_t kMax = 16;
+  for (int batch = 0; batch < 2000; ++batch) {
+    const std::uint32_t count = std::uint32_t(batch) % (kMax + 1);
+    Voxel voxels[kMax];
+    std::uint32_t owners[kMax];
+    for (std::uint32_t k = 0; k < count; ++k)
+      voxels[k] = Voxel{std::int32_t(rng.next_u32() % std::uint32_t(info.virtual_dims[0])),
+                        std::int32_t(rng.next_u32() % std::uint32_t(info.virtual_dims[1])),
+                        std::int32_t(rng.next_u32() % std::uint32_t(info.virtual_dims[2]))};
+    lookup_cells<kMax>(info, grid.entries.data(), voxels, count, owners);
+    for (std::uint32_t k = 0; k < count; ++k)
+      ASSERT_EQ(owners[k], lookup_cell(info, grid.entries.data(), voxels[k]))
+          << "batch " << batch << " voxel " << k;
+  }
+}
+
 TEST_P(GridBuild, ListsAreSortedUniqueAndCoverTheReferenceArray) {
   const auto grid = build_test_grid(load_scene(GetParam()), BuildConfig{});
   std::uint64_t listed = 0;
