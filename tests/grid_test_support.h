@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstring>
 #include <map>
 #include <string>
 
@@ -30,6 +32,21 @@ inline GridArrays<CpuExecutor> build_test_grid(const Scene& scene,
   std::map<std::string, double> phases;
   build_grid(exec, grid, config, phases);
   return grid;
+}
+
+/// Expects two grids to be equal bit for bit: scalars, voxel map (and its level offsets), cells,
+/// references and empty radii. The grids may come from different executors.
+template <typename GridA, typename GridB>
+void expect_same_grid(const GridA& a, const GridB& b) {
+  ASSERT_EQ(std::memcmp(&a.info, &b.info, sizeof(GridInfo)), 0);
+  EXPECT_EQ(a.level_offsets, b.level_offsets);
+  ASSERT_EQ(a.entries.size(), b.entries.size());
+  EXPECT_EQ(std::memcmp(a.entries.data(), b.entries.data(), a.entries.size() * sizeof(Entry)), 0);
+  ASSERT_EQ(a.cells.size(), b.cells.size());
+  EXPECT_EQ(std::memcmp(a.cells.data(), b.cells.data(), a.cells.size() * sizeof(Cell)), 0);
+  EXPECT_TRUE(std::equal(a.refs.begin(), a.refs.end(), b.refs.begin(), b.refs.end()));
+  EXPECT_TRUE(std::equal(a.empty_radii.begin(), a.empty_radii.end(), b.empty_radii.begin(),
+                         b.empty_radii.end()));
 }
 
 inline std::uint64_t cell_volume(const Cell& c) {

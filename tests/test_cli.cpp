@@ -201,7 +201,7 @@ TEST_F(Cli, PrimitiveProfileListsTheBuildsPrimitives) {
   const Result r = run("build builtin:cornell");
   ::unsetenv("IRGRID_PRIMITIVE_PROFILE");
   ASSERT_EQ(r.code, 0) << r.err;
-  EXPECT_NE(r.err.find("primitive split masks"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("primitive octree top cells"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("primitive expand cells"), std::string::npos) << r.err;
   EXPECT_EQ(run("build builtin:cornell").err.find("primitive "), std::string::npos);
 }

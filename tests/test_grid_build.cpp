@@ -191,15 +191,36 @@ TEST_P(GridBuild, SameGridWhateverTheThreadCount) {
     return build_test_grid(scene,
                            BuildConfig{});  // the whole build, merging and expansion included
   };
-  const auto one = build_with(1), two = build_with(2);
-  ASSERT_EQ(std::memcmp(&one.info, &two.info, sizeof(GridInfo)), 0);
-  ASSERT_EQ(one.entries.size(), two.entries.size());
-  EXPECT_EQ(std::memcmp(one.entries.data(), two.entries.data(), one.entries.size() * sizeof(Entry)),
-            0);
-  ASSERT_EQ(one.cells.size(), two.cells.size());
-  EXPECT_EQ(std::memcmp(one.cells.data(), two.cells.data(), one.cells.size() * sizeof(Cell)), 0);
-  EXPECT_EQ(one.refs, two.refs);
-  EXPECT_EQ(one.empty_radii, two.empty_radii);
+  testing::expect_same_grid(build_with(1), build_with(2));
+}
+
+/// The CPU executor with the GPU's way of building octrees: level by level, then assembled.
+struct LevelByLevelExecutor : CpuExecutor {
+  static constexpr bool kDepthFirstOctrees = false;
+};
+
+TEST_P(GridBuild, DepthFirstOctreesEqualTheLevelByLevelBuild) {
+  const Scene scene = load_scene(GetParam());
+  std::vector<BuildConfig> configs(7, testing::initial_grid_config());
+  configs[1] = BuildConfig{};  // merging and expansion read the octree-form map
+  configs[2].split_refs = 0;   // the paper's depths only
+  configs[3].split_refs = 4;   // count splits everywhere
+  configs[4].lambda2 = 0;
+  configs[5].shape = BuildConfig::Shape::two_level;  // empty nodes split too
+  configs[6].shape = BuildConfig::Shape::uniform;
+  for (const BuildConfig& config : configs) {
+    SCOPED_TRACE(::testing::Message()
+                 << "lambda2 " << config.lambda2 << ", split_refs " << config.split_refs
+                 << ", shape " << int(config.shape) << ", alpha " << config.alpha);
+    const auto depth_first = build_test_grid(scene, config);
+    LevelByLevelExecutor exec;
+    GridArrays<LevelByLevelExecutor> level_by_level;
+    gather_triangles(scene, level_by_level.triangles);
+    std::map<std::string, double> phases;
+    build_grid(exec, level_by_level, config, phases);
+    ASSERT_GT(phases.count("octree levels"), 0u);
+    testing::expect_same_grid(depth_first, level_by_level);
+  }
 }
 
 TEST_P(GridBuild, RangesFollowTheCellOrderAndCompressLosslessly) {

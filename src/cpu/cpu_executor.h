@@ -34,6 +34,10 @@ class CpuExecutor {
   /// map are chains of dependent loads, and a core keeps the loads of several walks in flight.
   static constexpr std::uint32_t kLookupBatch = 16;
 
+  /// The initial grid's octrees are built one top cell at a time, in cache, into growing host
+  /// buffers (core/build/octree_depth_first.h); the result equals the level-by-level build's.
+  static constexpr bool kDepthFirstOctrees = true;
+
   /// Memory the primitives work on; host vectors here, device buffers on the CUDA executor.
   /// Algorithm code reaches elements only through the executor's calls or, inside a
   /// for_each body, through raw pointers taken with buffer.data() beforehand. Their bytes are

@@ -61,6 +61,9 @@ class CudaExecutor {
   /// One cell per thread: warps hide the latency of voxel-map walks (CpuExecutor::kLookupBatch).
   static constexpr std::uint32_t kLookupBatch = 1;
 
+  /// Octrees level by level: a few wide passes per level (CpuExecutor::kDepthFirstOctrees).
+  static constexpr bool kDepthFirstOctrees = false;
+
   template <typename T>
   using Buffer = cuda::DeviceBuffer<T>;
 

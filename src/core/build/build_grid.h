@@ -16,6 +16,7 @@
 #include "core/build/empty_space.h"
 #include "core/build/expand.h"
 #include "core/build/merge.h"
+#include "core/build/octree_depth_first.h"
 #include "core/build/octree_levels.h"
 #include "core/build/top_grid.h"
 #include "core/build/top_level_refs.h"
@@ -110,12 +111,26 @@ std::int32_t build_initial_grid(Exec& exec, GridArrays<Exec>& grid, const BuildC
   const OctreeDepths<Exec> depths = plan_octree_depths(exec, grid.info, pairs, config);
   const OctreeRule rule{depths.per_top_cell.data(), config.shape == BuildConfig::Shape::two_level,
                         config.split_refs, depths.count_split};
+  const auto plan_empty_space = [&] {
+    if (config.skip_empty && config.shape == BuildConfig::Shape::irregular) {
+      grid.empty_radii = empty_space_radii(exec, grid.info, depths.refs_per_top_cell.data());
+      clock.lap("empty space");
+    }
+  };
+  if constexpr (Exec::kDepthFirstOctrees) {
+    if (depth_first_applies(grid.info)) {
+      auto octrees = build_top_cell_octrees(exec, grid.info, triangles, std::move(pairs),
+                                            depths.refs_per_top_cell.data(), rule);
+      clock.lap("octree levels");
+      plan_empty_space();
+      assemble_top_cell_octrees(exec, octrees, grid);
+      clock.lap("cells and references");
+      return depths.deepest_lambda2;
+    }
+  }
   auto levels = build_octree_levels(exec, grid.info, triangles, std::move(pairs), rule);
   clock.lap("octree levels");
-  if (config.skip_empty && config.shape == BuildConfig::Shape::irregular) {
-    grid.empty_radii = empty_space_radii(exec, grid.info, depths.refs_per_top_cell.data());
-    clock.lap("empty space");
-  }
+  plan_empty_space();
   assemble_grid(exec, levels, grid);
   clock.lap("cells and references");
   return depths.deepest_lambda2;
