@@ -33,10 +33,10 @@ const std::vector<std::string> kScenes = {"builtin:cornell", "builtin:teapot-sta
 constexpr float kAlpha = 0.995f, kCostRatio = 1.f, kEmptyAspect = BuildConfig{}.empty_aspect;
 
 Grid merged_copy(const Grid& grid, float alpha = kAlpha, float cost_ratio = kCostRatio,
-                 float empty_aspect = kEmptyAspect) {
+                 float empty_aspect = kEmptyAspect, float in_place_below = 1.f / 16) {
   CpuExecutor exec;
   Grid copy = grid;
-  merge_cells(exec, copy, alpha, cost_ratio, empty_aspect);
+  merge_cells(exec, copy, alpha, cost_ratio, empty_aspect, in_place_below);
   return copy;
 }
 
@@ -217,6 +217,24 @@ TEST_P(GridMerge, SameResultWhateverTheThreadCount) {
   const Grid one = merge_with(1), two = merge_with(2);
   EXPECT_TRUE(same_grid(one, two));
   EXPECT_TRUE(same_grid(one, c.after));
+}
+
+TEST_P(GridMerge, InPlaceSweepsGiveTheSameGridAsRebuildingOnes) {
+  // Never in place, the default (sweeps with few proposals), every sweep in place.
+  const MergeCase& c = merge_case(GetParam());
+  const Grid rebuilt = merged_copy(c.before, kAlpha, kCostRatio, kEmptyAspect, 0.f);
+  EXPECT_TRUE(same_grid(rebuilt, c.after));
+  EXPECT_TRUE(same_grid(merged_copy(c.before, kAlpha, kCostRatio, kEmptyAspect, 2.f), rebuilt));
+  // Rounds replayed one by one, each ending with its absorbed cells dropped, agree too.
+  Grid grid = c.before;
+  for (int round = 0; round < 100; ++round) {
+    const std::uint32_t before = grid.info.num_cells;
+    grid = merged_copy(grid, 1e-30f, kCostRatio, kEmptyAspect, 2.f);
+    if (grid.info.num_cells == before ||
+        double(grid.info.num_cells) >= double(kAlpha) * double(before))
+      break;
+  }
+  EXPECT_TRUE(same_grid(grid, rebuilt));
 }
 
 /// Random rays through the scene box, and rays that start on faces of merged cells.
