@@ -24,7 +24,6 @@
 #include <atomic>
 #include <bit>
 #include <cstdint>
-#include <string>
 #include <vector>
 
 #include "core/build/cells.h"
@@ -209,10 +208,8 @@ TopCellOctrees<Exec> build_top_cell_octrees(Exec& exec, const GridInfo& info,
       for (std::uint32_t l = 0; l < levels; ++l)
         level_sizes[l] = std::uint32_t(chunk.levels[l].size());
       const auto cells_before = std::uint32_t(chunk.cells.size());
-      const auto dx = std::uint32_t(info.top_dims[0]), dy = std::uint32_t(info.top_dims[1]);
-      const Voxel lo{std::int32_t(t % dx) << info.shift, std::int32_t(t / dx % dy) << info.shift,
-                     std::int32_t(t / dx / dy) << info.shift};
-      builder.build(lo, rule.depths[t], tri + first[t], refs_per_top[t], t - top_begin);
+      builder.build(top_cell_corner(info, t), rule.depths[t], tri + first[t], refs_per_top[t],
+                    t - top_begin);
       cells_per_top[t] = std::uint32_t(chunk.cells.size()) - cells_before;
       refs_out[t] = chunk.cells.back().end;
       std::uint32_t* added = chunk.entries_per_level.data() + std::size_t(t - top_begin) * levels;
@@ -251,13 +248,10 @@ void assemble_top_cell_octrees(Exec& exec, TopCellOctrees<Exec>& octrees, GridAr
   std::uint64_t* d_keys = keys.data();
   std::uint32_t* d_order = order.data();
   exec.for_each("octree top-cell order", n, [=] IRGRID_HD(std::size_t i) {
-    const auto t = std::uint32_t(i), dx = std::uint32_t(info.top_dims[0]),
-               dy = std::uint32_t(info.top_dims[1]);
-    const std::int32_t corner[3] = {std::int32_t(t % dx) << info.shift,
-                                    std::int32_t(t / dx % dy) << info.shift,
-                                    std::int32_t(t / dx / dy) << info.shift};
+    const Voxel v = top_cell_corner(info, std::uint32_t(i));
+    const std::int32_t corner[3] = {v.x, v.y, v.z};
     d_keys[i] = morton_key(corner, 0);
-    d_order[i] = t;
+    d_order[i] = std::uint32_t(i);
   });
   const int bits = int(std::bit_width(std::uint32_t(
       std::max({info.virtual_dims[0], info.virtual_dims[1], info.virtual_dims[2], 1}) - 1)));

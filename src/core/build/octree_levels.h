@@ -32,6 +32,13 @@ struct LevelNodes {
   std::uint32_t count = 0;
 };
 
+/// The lower voxel of top cell `index` (x-fastest order).
+IRGRID_HD inline Voxel top_cell_corner(const GridInfo& info, std::uint32_t index) {
+  const auto dx = std::uint32_t(info.top_dims[0]), dy = std::uint32_t(info.top_dims[1]);
+  return {std::int32_t(index % dx) << info.shift, std::int32_t(index / dx % dy) << info.shift,
+          std::int32_t(index / dx / dy) << info.shift};
+}
+
 template <typename Exec>
 LevelNodes<Exec> top_level_nodes(Exec& exec, const GridInfo& info) {
   const std::uint32_t count = std::uint32_t(info.top_dims[0]) * std::uint32_t(info.top_dims[1]) *
@@ -41,11 +48,8 @@ LevelNodes<Exec> top_level_nodes(Exec& exec, const GridInfo& info) {
   Voxel* lo = nodes.lo.data();
   std::uint32_t* top = nodes.top.data();
   exec.for_each("top nodes", count, [=] IRGRID_HD(std::size_t i) {
-    const auto dx = std::uint32_t(info.top_dims[0]), dy = std::uint32_t(info.top_dims[1]);
-    const auto index = std::uint32_t(i);
-    lo[i] = {std::int32_t(index % dx) << info.shift, std::int32_t(index / dx % dy) << info.shift,
-             std::int32_t(index / dx / dy) << info.shift};
-    top[i] = index;
+    lo[i] = top_cell_corner(info, std::uint32_t(i));
+    top[i] = std::uint32_t(i);
   });
   return nodes;
 }
