@@ -82,7 +82,9 @@ class TopCellBuilder {
     top_depth_ = depth;
     first_cell_ = std::uint32_t(chunk_.cells.size());
     first_ref_ = std::uint32_t(chunk_.refs.size());
-    lists_.assign(tris, tris + count);
+    reserve_lists(count);
+    std::copy(tris, tris + count, lists_.data());
+    lists_top_ = count;
     node(0, lo, 0, count, slot);
     flush_totals();
   }
@@ -91,28 +93,30 @@ class TopCellBuilder {
   void node(std::int32_t level, Voxel lo, std::size_t list_begin, std::uint32_t count,
             std::uint32_t slot) {
     bool split = rule_.splits_by_depth(level, top_depth_, count);
-    const std::size_t mask_begin = masks_.size();
+    const std::size_t mask_begin = masks_top_;
     if (split || rule_.count_candidate(level, count)) {
       const std::int32_t half = std::int32_t(1) << (info_.shift - level - 1);
+      if (masks_.size() < mask_begin + count) masks_.resize(2 * (mask_begin + count));
+      masks_top_ = mask_begin + count;
       std::uint64_t child_refs = 0;
       for (std::uint32_t k = 0; k < count; ++k) {
         const std::uint32_t mask =
             child_overlap_mask(info_, lo, half, triangles_[lists_[list_begin + k]]);
-        masks_.push_back(std::uint8_t(mask));
+        masks_[mask_begin + k] = std::uint8_t(mask);
         child_refs += popcount8(mask);
       }
       if (!split) split = rule_.count_split_separates(count, std::uint32_t(child_refs));
     }
     auto& entries = chunk_.levels[std::size_t(level)];
     if (!split) {
-      masks_.resize(mask_begin);
+      masks_top_ = mask_begin;
       entries[slot] = Entry::leaf(std::uint32_t(chunk_.cells.size()) - first_cell_);
       const std::int32_t size = std::int32_t(1) << (info_.shift - level);
       const auto begin = std::uint32_t(chunk_.refs.size()) - first_ref_;
       chunk_.cells.push_back(
           {{lo.x, lo.y, lo.z}, begin, {lo.x + size, lo.y + size, lo.z + size}, begin + count});
-      chunk_.refs.insert(chunk_.refs.end(), lists_.begin() + std::ptrdiff_t(list_begin),
-                         lists_.begin() + std::ptrdiff_t(list_begin + count));
+      chunk_.refs.insert(chunk_.refs.end(), lists_.data() + list_begin,
+                         lists_.data() + list_begin + count);
       pending_refs_ += count;
       return;
     }
@@ -124,18 +128,24 @@ class TopCellBuilder {
     if (pending_entries_ >= kFlushEvery || pending_refs_ >= kFlushEvery) flush_totals();
     const std::int32_t half = std::int32_t(1) << (info_.shift - level - 1);
     for (std::uint32_t bit = 0; bit < 8; ++bit) {
-      const std::size_t child_begin = lists_.size();
-      for (std::uint32_t k = 0; k < count; ++k)
-        if (masks_[mask_begin + k] >> bit & 1) {
-          const std::uint32_t tri = lists_[list_begin + k];
-          lists_.push_back(tri);
-        }
+      // Branch-free: every triangle is written, and the end moves on for those in the child.
+      const std::size_t child_begin = lists_top_;
+      reserve_lists(child_begin + count);
+      std::uint32_t* out = lists_.data() + child_begin;
+      const std::uint32_t* in = lists_.data() + list_begin;
+      const std::uint8_t* masks = masks_.data() + mask_begin;
+      std::uint32_t kept = 0;
+      for (std::uint32_t k = 0; k < count; ++k) {
+        out[kept] = in[k];
+        kept += masks[k] >> bit & 1;
+      }
+      lists_top_ = child_begin + kept;
       const Voxel child{lo.x + ((bit & 1) ? half : 0), lo.y + ((bit & 2) ? half : 0),
                         lo.z + ((bit & 4) ? half : 0)};
-      node(level + 1, child, child_begin, std::uint32_t(lists_.size() - child_begin), base + bit);
-      lists_.resize(child_begin);
+      node(level + 1, child, child_begin, kept, base + bit);
+      lists_top_ = child_begin;
     }
-    masks_.resize(mask_begin);
+    masks_top_ = mask_begin;
   }
 
   /// Adds what this builder made since the last call to the shared totals and checks the
@@ -159,10 +169,17 @@ class TopCellBuilder {
   std::int32_t top_depth_ = 0;
   std::uint32_t first_cell_ = 0, first_ref_ = 0;
   std::uint64_t pending_entries_ = 0, pending_refs_ = 0;
+  /// Room for `size` entries of the list stack (its contents kept; the vector may move).
+  void reserve_lists(std::size_t size) {
+    if (lists_.size() < size) lists_.resize(2 * size);
+  }
+
   /// The triangle lists of the nodes on the current path, each after its parent's, and their
-  /// children masks: stacks, so a node's list is found by its offset (the vector may move).
+  /// children masks: stacks with their tops, so a node's list is found by its offset (the
+  /// vectors may move; they only grow).
   std::vector<std::uint32_t> lists_;
   std::vector<std::uint8_t> masks_;
+  std::size_t lists_top_ = 0, masks_top_ = 0;
 };
 
 }  // namespace depth_first_detail
