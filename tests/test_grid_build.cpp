@@ -349,6 +349,29 @@ TEST(OctreeSplit, ThresholdAboveEveryCountGivesThePaperGrid) {
   EXPECT_EQ(a.refs.size(), b.refs.size());
 }
 
+/// The CPU executor on a machine with 1 MiB of memory.
+struct TinyMemoryExecutor : CpuExecutor {
+  static std::uint64_t memory_budget() { return std::uint64_t(1) << 20; }
+};
+
+TEST(GridLimits, OctreesThatOutgrowTheMemoryStopWithAnError) {
+  // A huge lambda2 once ran the octrees until the system killed the process; now they stop as
+  // soon as the build would need more than the machine has.
+  const Scene scene = load_scene("builtin:teapot-stadium:4000");
+  TinyMemoryExecutor exec;
+  GridArrays<TinyMemoryExecutor> grid;
+  gather_triangles(scene, grid.triangles);
+  std::map<std::string, double> phases;
+  try {
+    build_grid(exec, grid, BuildConfig{}, phases);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ErrorCode::out_of_memory);
+    EXPECT_NE(std::string(e.what()).find("lambda2"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("1 MiB"), std::string::npos) << e.what();
+  }
+}
+
 TEST(GridLimits, InvalidParametersNameTheValue) {
   const Scene scene = load_scene("builtin:cube");
   BuildConfig config;

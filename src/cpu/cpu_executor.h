@@ -7,11 +7,16 @@
 
 #include <chrono>
 #include <cstddef>
+#include <cstdint>
 #include <map>
 #include <string>
 #include <type_traits>
 #include <utility>
 #include <vector>
+
+#if defined(__linux__)
+#include <unistd.h>
+#endif
 
 #include "cpu/memory_meter.h"
 #include "cpu/radix_sort.h"
@@ -37,6 +42,17 @@ class CpuExecutor {
   /// The initial grid's octrees are built one top cell at a time, in cache, into growing host
   /// buffers (core/build/octree_depth_first.h); the result equals the level-by-level build's.
   static constexpr bool kDepthFirstOctrees = true;
+
+  /// Bytes of memory the machine has (0 when unknown): phases that grow their buffers as they
+  /// go (the depth-first octrees) stop with an error before their arrays outgrow it, instead of
+  /// being killed by the system.
+  static std::uint64_t memory_budget() {
+#if defined(__linux__)
+    const long pages = sysconf(_SC_PHYS_PAGES), page_size = sysconf(_SC_PAGE_SIZE);
+    if (pages > 0 && page_size > 0) return std::uint64_t(pages) * std::uint64_t(page_size);
+#endif
+    return 0;
+  }
 
   /// Memory the primitives work on; host vectors here, device buffers on the CUDA executor.
   /// Algorithm code reaches elements only through the executor's calls or, inside a
@@ -150,10 +166,14 @@ class CpuExecutor {
 
   /// Accumulated wall time in milliseconds per phase name, since construction or the last
   /// reset_profile().
-  const std::map<std::string, double>& profile_ms() const { return profile_ms_; }
+  const std::map<std::string, double>& profile_ms() const {
+    return profile_ms_;
+  }
 
   /// Clears the accumulated phase times.
-  void reset_profile() { profile_ms_.clear(); }
+  void reset_profile() {
+    profile_ms_.clear();
+  }
 
  private:
   /// Below this many elements a sequential scan beats spawning tasks.

@@ -24,6 +24,7 @@
 #include <atomic>
 #include <bit>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "core/build/cells.h"
@@ -61,10 +62,12 @@ struct TopCellOctrees {
 
 namespace depth_first_detail {
 
-/// Entries and references all top cells have built so far, for the 30-bit limits: a runaway
-/// octree (a huge lambda2) fails once the totals pass the limit, not when memory runs out.
+/// Entries, cells and references all top cells have built so far, for the limits: a runaway
+/// octree (a huge lambda2) fails once the totals pass the 30-bit limits or the build would
+/// outgrow the machine's memory (`memory_bytes`, 0: unknown), not when the system kills it.
 struct RunningTotals {
-  std::atomic<std::uint64_t> entries{0}, refs{0};
+  std::atomic<std::uint64_t> entries{0}, cells{0}, refs{0};
+  std::uint64_t memory_bytes = 0;
 };
 
 /// Builds the octree of one top cell into a chunk (the subdivision rule of plan_level).
@@ -118,6 +121,7 @@ class TopCellBuilder {
       chunk_.refs.insert(chunk_.refs.end(), lists_.data() + list_begin,
                          lists_.data() + list_begin + count);
       pending_refs_ += count;
+      ++pending_cells_;
       return;
     }
     auto& children = chunk_.levels[std::size_t(level) + 1];
@@ -152,12 +156,25 @@ class TopCellBuilder {
   /// limits of the level-by-level build, with its messages.
   void flush_totals() {
     const std::uint64_t entries = totals_.entries += pending_entries_;
+    const std::uint64_t cells = totals_.cells += pending_cells_;
     const std::uint64_t refs = totals_.refs += pending_refs_;
-    pending_entries_ = pending_refs_ = 0;
+    pending_entries_ = pending_cells_ = pending_refs_ = 0;
     if (entries > kMaxEntryTarget)
       throw Error(ErrorCode::limit_exceeded,
                   "voxel map: more than 2^30 - 1 entries (lower lambda2)");
     check_reference_count(refs, "octree references");
+    // The build holds these arrays about 3 times at its peak: the chunks and the grid's arrays
+    // they are copied into, then the old and the new arrays of a merge sweep.
+    const std::uint64_t bytes =
+        3 * (entries * sizeof(Entry) + cells * sizeof(Cell) + refs * sizeof(std::uint32_t));
+    if (totals_.memory_bytes != 0 && bytes > totals_.memory_bytes)
+      throw Error(ErrorCode::out_of_memory,
+                  "octrees: " + std::to_string(cells) + " cells, " + std::to_string(entries) +
+                      " map entries and " + std::to_string(refs) +
+                      " references so far; the build would need about " +
+                      std::to_string((bytes + (1u << 20) - 1) >> 20) +
+                      " MiB, more than the machine's " +
+                      std::to_string(totals_.memory_bytes >> 20) + " MiB (lower lambda2)");
   }
 
   static constexpr std::uint64_t kFlushEvery = 4096;
@@ -168,7 +185,7 @@ class TopCellBuilder {
   RunningTotals& totals_;
   std::int32_t top_depth_ = 0;
   std::uint32_t first_cell_ = 0, first_ref_ = 0;
-  std::uint64_t pending_entries_ = 0, pending_refs_ = 0;
+  std::uint64_t pending_entries_ = 0, pending_cells_ = 0, pending_refs_ = 0;
   /// Room for `size` entries of the list stack (its contents kept; the vector may move).
   void reserve_lists(std::size_t size) {
     if (lists_.size() < size) lists_.resize(2 * size);
@@ -208,6 +225,7 @@ TopCellOctrees<Exec> build_top_cell_octrees(Exec& exec, const GridInfo& info,
   out.cells_per_top.resize(n);
   out.refs_per_top.resize(n);
   depth_first_detail::RunningTotals totals;
+  totals.memory_bytes = exec.memory_budget();
   ChunkOctrees<Exec>* chunks = out.chunks.data();
   std::uint32_t *cells_per_top = out.cells_per_top.data(), *refs_out = out.refs_per_top.data();
   const std::uint32_t levels = out.levels_per_top;
