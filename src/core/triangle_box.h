@@ -160,35 +160,58 @@ IRGRID_HD IRGRID_ALWAYS_INLINE bool edge_separates(Vec3<T> edge, const CenteredT
 }
 
 /// A box split into 8 octants (bit 0 selects the upper x half, bit 1 y, bit 2 z), each grown by
-/// the padding, with the triangle in the frame of the whole box's centre C.
+/// the padding, described in the frame of the whole box's centre C: what octants_overlapped
+/// needs of the box, computed once for all the triangles tested against it.
+template <typename T>
+struct OctantBox {
+  Vec3<T> center;     ///< C
+  Vec3<T> offset[2];  ///< centre of the lower [0] and upper [1] octants minus C, per axis
+  Vec3<T> half[2];    ///< half extents of the lower and upper octants' padded boxes
+  Vec3<T> farthest_offset, largest_half;  ///< per axis: max |offset|, max half
+};
+
+template <typename T>
+IRGRID_HD inline OctantBox<T> octant_box(Vec3<T> lo, Vec3<T> mid, Vec3<T> hi, T padding) {
+  OctantBox<T> b;
+  for (int k = 0; k < 3; ++k) {
+    const T outer_lo = lo[k] - padding, outer_hi = hi[k] + padding;
+    b.center[k] = T(0.5) * outer_lo + T(0.5) * outer_hi;
+    // The octants' padded intervals, described by centre and half extent as in center_on_box.
+    T lower_center, upper_center;
+    center_and_half(outer_lo, mid[k] + padding, lower_center, b.half[0][k]);
+    center_and_half(mid[k] - padding, outer_hi, upper_center, b.half[1][k]);
+    b.offset[0][k] = lower_center - b.center[k];
+    b.offset[1][k] = upper_center - b.center[k];
+    b.farthest_offset[k] = max_of(abs_of(b.offset[0][k]), abs_of(b.offset[1][k]));
+    b.largest_half[k] = max_of(b.half[0][k], b.half[1][k]);
+  }
+  return b;
+}
+
+/// An OctantBox with a triangle in its frame.
 template <typename T>
 struct OctantFrame {
   Vec3<T> v0, v1, v2;  ///< vertices minus C
-  Vec3<T> offset[2];   ///< centre of the lower [0] and upper [1] octants minus C, per axis
-  Vec3<T> half[2];     ///< half extents of the lower and upper octants' padded boxes
+  Vec3<T> offset[2];   ///< as in OctantBox
+  Vec3<T> half[2];     ///< as in OctantBox
   Vec3<T> reach;       ///< per axis: max_i |v_ik| + max |offset_k| + max half_k + tiny/eps
 };
 
 template <typename T>
-IRGRID_HD inline OctantFrame<T> octant_frame(Vec3<T> p0, Vec3<T> p1, Vec3<T> p2, Vec3<T> lo,
-                                             Vec3<T> mid, Vec3<T> hi, T padding) {
+IRGRID_HD inline OctantFrame<T> octant_frame(Vec3<T> p0, Vec3<T> p1, Vec3<T> p2,
+                                             const OctantBox<T>& b) {
   OctantFrame<T> f;
   const T floor = smallest_normal<T>() / machine_epsilon<T>();
   for (int k = 0; k < 3; ++k) {
-    const T outer_lo = lo[k] - padding, outer_hi = hi[k] + padding;
-    const T center = T(0.5) * outer_lo + T(0.5) * outer_hi;
-    // The octants' padded intervals, described by centre and half extent as in center_on_box.
-    T lower_center, upper_center;
-    center_and_half(outer_lo, mid[k] + padding, lower_center, f.half[0][k]);
-    center_and_half(mid[k] - padding, outer_hi, upper_center, f.half[1][k]);
-    f.offset[0][k] = lower_center - center;
-    f.offset[1][k] = upper_center - center;
-    f.v0[k] = p0[k] - center;
-    f.v1[k] = p1[k] - center;
-    f.v2[k] = p2[k] - center;
+    f.half[0][k] = b.half[0][k];
+    f.half[1][k] = b.half[1][k];
+    f.offset[0][k] = b.offset[0][k];
+    f.offset[1][k] = b.offset[1][k];
+    f.v0[k] = p0[k] - b.center[k];
+    f.v1[k] = p1[k] - b.center[k];
+    f.v2[k] = p2[k] - b.center[k];
     const T farthest = max_of(abs_of(f.v0[k]), max_of(abs_of(f.v1[k]), abs_of(f.v2[k])));
-    const T offset = max_of(abs_of(f.offset[0][k]), abs_of(f.offset[1][k]));
-    f.reach[k] = farthest + offset + max_of(f.half[0][k], f.half[1][k]) + floor;
+    f.reach[k] = farthest + b.farthest_offset[k] + b.largest_half[k] + floor;
   }
   return f;
 }
@@ -247,16 +270,16 @@ IRGRID_HD IRGRID_ALWAYS_INLINE bool triangle_overlaps_box(Vec3<T> p0, Vec3<T> p1
   return !(edge_separates(e0, t) || edge_separates(e1, t) || edge_separates(e2, t));
 }
 
-/// Which of the 8 octants of the box [lo, hi], split at mid (bit 0 selects the upper x half,
-/// bit 1 y, bit 2 z), each grown by `padding`, the triangle overlaps, among the bits of
+/// Which of the 8 octants of `box` (octant_box: [lo, hi] split at mid, bit 0 selects the upper
+/// x half, bit 1 y, bit 2 z, each grown by the padding) the triangle overlaps, among the bits of
 /// `candidates`. Conservative like triangle_overlaps_box (the header comment says why), with
 /// the triangle's projections onto the 13 axes shared by the octants. Requires lo <= mid <= hi.
 template <typename T>
-IRGRID_HD inline std::uint32_t octants_overlapped(Vec3<T> p0, Vec3<T> p1, Vec3<T> p2, Vec3<T> lo,
-                                                  Vec3<T> mid, Vec3<T> hi, T padding,
+IRGRID_HD inline std::uint32_t octants_overlapped(Vec3<T> p0, Vec3<T> p1, Vec3<T> p2,
+                                                  const triangle_box_detail::OctantBox<T>& box,
                                                   std::uint32_t candidates) {
   using namespace triangle_box_detail;
-  const OctantFrame<T> f = octant_frame(p0, p1, p2, lo, mid, hi, padding);
+  const OctantFrame<T> f = octant_frame(p0, p1, p2, box);
   std::uint32_t mask = candidates;
   mask = octants_not_separated_along<1>(Vec3<T>{T(1), T(0), T(0)}, f, mask);
   mask = octants_not_separated_along<0>(Vec3<T>{T(0), T(1), T(0)}, f, mask);
@@ -271,6 +294,16 @@ IRGRID_HD inline std::uint32_t octants_overlapped(Vec3<T> p0, Vec3<T> p1, Vec3<T
     mask = octants_not_separated_along<2>(Vec3<T>{e.y, -e.x, T(0)}, f, mask);
   }
   return mask;
+}
+
+/// octants_overlapped for the box [lo, hi] split at mid; the form above lets many triangles
+/// share the box's half of the work.
+template <typename T>
+IRGRID_HD inline std::uint32_t octants_overlapped(Vec3<T> p0, Vec3<T> p1, Vec3<T> p2, Vec3<T> lo,
+                                                  Vec3<T> mid, Vec3<T> hi, T padding,
+                                                  std::uint32_t candidates) {
+  return octants_overlapped(p0, p1, p2, triangle_box_detail::octant_box(lo, mid, hi, padding),
+                            candidates);
 }
 
 }  // namespace irgrid

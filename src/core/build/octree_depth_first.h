@@ -98,13 +98,14 @@ class TopCellBuilder {
     bool split = rule_.splits_by_depth(level, top_depth_, count);
     const std::size_t mask_begin = masks_top_;
     if (split || rule_.count_candidate(level, count)) {
-      const std::int32_t half = std::int32_t(1) << (info_.shift - level - 1);
+      const NodeSplit split_node =
+          node_split(info_, lo, std::int32_t(1) << (info_.shift - level - 1));
       if (masks_.size() < mask_begin + count) masks_.resize(2 * (mask_begin + count));
       masks_top_ = mask_begin + count;
       std::uint64_t child_refs = 0;
       for (std::uint32_t k = 0; k < count; ++k) {
         const std::uint32_t mask =
-            child_overlap_mask(info_, lo, half, triangles_[lists_[list_begin + k]]);
+            child_overlap_mask(split_node, triangles_[lists_[list_begin + k]]);
         masks_[mask_begin + k] = std::uint8_t(mask);
         child_refs += popcount8(mask);
       }

@@ -54,34 +54,52 @@ LevelNodes<Exec> top_level_nodes(Exec& exec, const GridInfo& info) {
   return nodes;
 }
 
-/// 8-bit mask of the children of a node (lower voxel `lo`, children of `half` voxels) that the
-/// triangle overlaps; bit 0 selects the upper x half, bit 1 y, bit 2 z.
-IRGRID_HD inline std::uint32_t child_overlap_mask(const GridInfo& info, Voxel lo, std::int32_t half,
+/// A node about to be split (lower voxel `lo`, children of `half` voxels) in world units: what
+/// child_overlap_mask needs of it, computed once for all of its triangles.
+struct NodeSplit {
+  Vec3<float> lo, mid, hi;
+  triangle_box_detail::OctantBox<float> octants;
+  float padding;
+};
+
+IRGRID_HD inline NodeSplit node_split(const GridInfo& info, Voxel lo, std::int32_t half) {
+  NodeSplit n;
+  for (int a = 0; a < 3; ++a) {
+    n.lo[a] = voxel_to_world(info, a, lo[a]);
+    n.mid[a] = voxel_to_world(info, a, lo[a] + half);
+    n.hi[a] = voxel_to_world(info, a, lo[a] + 2 * half);
+  }
+  n.octants = triangle_box_detail::octant_box(n.lo, n.mid, n.hi, info.padding);
+  n.padding = info.padding;
+  return n;
+}
+
+/// 8-bit mask of the children of a node that the triangle overlaps; bit 0 selects the upper x
+/// half, bit 1 y, bit 2 z.
+IRGRID_HD inline std::uint32_t child_overlap_mask(const NodeSplit& node,
                                                   const TriangleVertices& t) {
   // Cull by the triangle's padded box against the node's mid-planes first (cheap), then run the
   // exact test on the children left, all at once.
   const BoxF box = triangle_box(t);
   std::uint32_t mask = 0xFF;
   for (int a = 0; a < 3; ++a) {
-    const float mid = voxel_to_world(info, a, lo[a] + half);
-    if (box.hi[a] + info.padding < mid) mask &= ~upper_octants(a);
-    if (box.lo[a] - info.padding > mid) mask &= upper_octants(a);
+    if (box.hi[a] + node.padding < node.mid[a]) mask &= ~upper_octants(a);
+    if (box.lo[a] - node.padding > node.mid[a]) mask &= upper_octants(a);
   }
   // One child left: the triangle meets the node's padded box (it was kept there by the same
   // conservative test), and every such point lies within that child's padded box.
   if ((mask & (mask - 1)) == 0) return mask;
-  Vec3<float> node_lo, node_mid, node_hi;
-  for (int a = 0; a < 3; ++a) {
-    node_lo[a] = voxel_to_world(info, a, lo[a]);
-    node_mid[a] = voxel_to_world(info, a, lo[a] + half);
-    node_hi[a] = voxel_to_world(info, a, lo[a] + 2 * half);
-  }
   // A child holding a vertex overlaps it (exact); the others take the separating-axis test.
   const std::uint32_t held =
-      mask & octants_holding_vertex(t, node_lo, node_mid, node_hi, info.padding);
+      mask & octants_holding_vertex(t, node.lo, node.mid, node.hi, node.padding);
   if (held == mask) return mask;
-  return held | octants_overlapped(t.p0, t.p1, t.p2, node_lo, node_mid, node_hi, info.padding,
-                                   mask & ~held);
+  return held | octants_overlapped(t.p0, t.p1, t.p2, node.octants, mask & ~held);
+}
+
+/// child_overlap_mask of the node with lower voxel `lo` and children of `half` voxels.
+IRGRID_HD inline std::uint32_t child_overlap_mask(const GridInfo& info, Voxel lo, std::int32_t half,
+                                                  const TriangleVertices& t) {
+  return child_overlap_mask(node_split(info, lo, half), t);
 }
 
 /// Number of set bits of an 8-bit mask, without a library call (x86-64 without -mpopcnt turns
