@@ -3,7 +3,7 @@
 // Pérard-Gayot et al. 2017, §3.1, built in another order: the same grid as build_octree_levels
 // followed by assemble_grid (octree_levels.h, cells.h), bit for bit, for executors that set
 // kDepthFirstOctrees (the CPU). The level-by-level build suits a GPU: every level is a few wide
-// passes. On a CPU with 2 cores those passes stream (node, triangle) pairs through memory level
+// passes. On a CPU those passes stream (node, triangle) pairs through memory level
 // after level, then sort them twice (cells into Morton order, references by cell). Here each top
 // cell's octree is built depth-first while its few triangles sit in cache, and the parts come
 // out already in their final order, so neither sort is needed:
