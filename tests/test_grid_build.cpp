@@ -349,17 +349,19 @@ TEST(OctreeSplit, ThresholdAboveEveryCountGivesThePaperGrid) {
   EXPECT_EQ(a.refs.size(), b.refs.size());
 }
 
-/// The CPU executor on a machine with 1 MiB of memory.
+/// The CPU executor on a machine with 1 MiB of memory, with either octree build.
 struct TinyMemoryExecutor : CpuExecutor {
   static std::uint64_t memory_budget() { return std::uint64_t(1) << 20; }
 };
+struct TinyMemoryLevelByLevelExecutor : TinyMemoryExecutor {
+  static constexpr bool kDepthFirstOctrees = false;
+};
 
-TEST(GridLimits, OctreesThatOutgrowTheMemoryStopWithAnError) {
-  // A huge lambda2 once ran the octrees until the system killed the process; now they stop as
-  // soon as the build would need more than the machine has.
+template <typename Exec>
+void expect_octrees_stop_for_memory() {
   const Scene scene = load_scene("builtin:teapot-stadium:4000");
-  TinyMemoryExecutor exec;
-  GridArrays<TinyMemoryExecutor> grid;
+  Exec exec;
+  GridArrays<Exec> grid;
   gather_triangles(scene, grid.triangles);
   std::map<std::string, double> phases;
   try {
@@ -370,6 +372,13 @@ TEST(GridLimits, OctreesThatOutgrowTheMemoryStopWithAnError) {
     EXPECT_NE(std::string(e.what()).find("lambda2"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("1 MiB"), std::string::npos) << e.what();
   }
+}
+
+TEST(GridLimits, OctreesThatOutgrowTheMemoryStopWithAnError) {
+  // A huge lambda2 once ran the octrees until the system killed the process; now they stop as
+  // soon as the build would need more than the machine has, built either way.
+  expect_octrees_stop_for_memory<TinyMemoryExecutor>();
+  expect_octrees_stop_for_memory<TinyMemoryLevelByLevelExecutor>();
 }
 
 TEST(GridLimits, InvalidParametersNameTheValue) {

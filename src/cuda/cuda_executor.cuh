@@ -64,6 +64,10 @@ class CudaExecutor {
   /// Octrees level by level: a few wide passes per level (CpuExecutor::kDepthFirstOctrees).
   static constexpr bool kDepthFirstOctrees = false;
 
+  /// No host-memory estimate for the build (CpuExecutor::memory_budget): the build's arrays
+  /// live on the device, whose allocations fail with an error when it is full.
+  static std::uint64_t memory_budget() { return 0; }
+
   template <typename T>
   using Buffer = cuda::DeviceBuffer<T>;
 

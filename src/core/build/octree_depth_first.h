@@ -24,7 +24,6 @@
 #include <atomic>
 #include <bit>
 #include <cstdint>
-#include <string>
 #include <vector>
 
 #include "core/build/cells.h"
@@ -164,18 +163,7 @@ class TopCellBuilder {
       throw Error(ErrorCode::limit_exceeded,
                   "voxel map: more than 2^30 - 1 entries (lower lambda2)");
     check_reference_count(refs, "octree references");
-    // The build holds these arrays about 3 times at its peak: the chunks and the grid's arrays
-    // they are copied into, then the old and the new arrays of a merge sweep.
-    const std::uint64_t bytes =
-        3 * (entries * sizeof(Entry) + cells * sizeof(Cell) + refs * sizeof(std::uint32_t));
-    if (totals_.memory_bytes != 0 && bytes > totals_.memory_bytes)
-      throw Error(ErrorCode::out_of_memory,
-                  "octrees: " + std::to_string(cells) + " cells, " + std::to_string(entries) +
-                      " map entries and " + std::to_string(refs) +
-                      " references so far; the build would need about " +
-                      std::to_string((bytes + (1u << 20) - 1) >> 20) +
-                      " MiB, more than the machine's " +
-                      std::to_string(totals_.memory_bytes >> 20) + " MiB (lower lambda2)");
+    check_octree_memory(totals_.memory_bytes, entries, cells, refs);
   }
 
   static constexpr std::uint64_t kFlushEvery = 4096;

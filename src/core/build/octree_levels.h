@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "core/build/top_level_refs.h"
@@ -100,6 +101,25 @@ IRGRID_HD inline std::uint32_t child_overlap_mask(const NodeSplit& node,
 IRGRID_HD inline std::uint32_t child_overlap_mask(const GridInfo& info, Voxel lo, std::int32_t half,
                                                   const TriangleVertices& t) {
   return child_overlap_mask(node_split(info, lo, half), t);
+}
+
+/// Throws Error{out_of_memory} when a build whose initial grid holds `entries` map entries,
+/// `cells` cells and `refs` references would outgrow `memory_bytes` (0: unknown, no check). Its
+/// peak holds those arrays about 3 times: the octrees' own buffers and the grid's arrays they
+/// become, then the old and the new arrays of a merge sweep. Octree builds check as they grow,
+/// so that a runaway octree (a huge lambda2) stops with an error, not killed by the system.
+inline void check_octree_memory(std::uint64_t memory_bytes, std::uint64_t entries,
+                                std::uint64_t cells, std::uint64_t refs) {
+  const std::uint64_t bytes =
+      3 * (entries * sizeof(Entry) + cells * sizeof(Cell) + refs * sizeof(std::uint32_t));
+  if (memory_bytes != 0 && bytes > memory_bytes)
+    throw Error(ErrorCode::out_of_memory,
+                "octrees: " + std::to_string(cells) + " cells, " + std::to_string(entries) +
+                    " map entries and " + std::to_string(refs) +
+                    " references so far; the build would need about " +
+                    std::to_string((bytes + (1u << 20) - 1) >> 20) +
+                    " MiB, more than the machine's " + std::to_string(memory_bytes >> 20) +
+                    " MiB (lower lambda2)");
 }
 
 /// Number of set bits of an 8-bit mask, without a library call (x86-64 without -mpopcnt turns
@@ -277,14 +297,13 @@ void keep_leaf_pairs(Exec& exec, const RefPairs<Exec>& pairs, const LevelPlan<Ex
   out.pairs.push_back(std::move(leaf_pairs));
 }
 
-/// The children of the split nodes, and their (child, triangle) pairs.
+/// The children of the split nodes, and their (child, triangle) pairs; `built` holds the levels
+/// above, for the memory check (check_octree_memory).
 template <typename Exec>
-std::pair<LevelNodes<Exec>, RefPairs<Exec>> split_level(Exec& exec, const GridInfo& info,
-                                                        const TriangleVertices* triangles,
-                                                        const LevelNodes<Exec>& nodes,
-                                                        const RefPairs<Exec>& pairs,
-                                                        const LevelPlan<Exec>& plan,
-                                                        std::int32_t level) {
+std::pair<LevelNodes<Exec>, RefPairs<Exec>> split_level(
+    Exec& exec, const GridInfo& info, const TriangleVertices* triangles,
+    const LevelNodes<Exec>& nodes, const RefPairs<Exec>& pairs, const LevelPlan<Exec>& plan,
+    const OctreeLevels<Exec>& built, std::int32_t level) {
   const std::int32_t half = std::int32_t(1) << (info.shift - level - 1);
   LevelNodes<Exec> children{exec.template allocate<Voxel>(plan.children),
                             exec.template allocate<std::uint32_t>(plan.children), plan.children};
@@ -319,7 +338,10 @@ std::pair<LevelNodes<Exec>, RefPairs<Exec>> split_level(Exec& exec, const GridIn
                      : child_overlap_mask(info, lo[node[i]], half, triangles[tri[i]]);
     d_offsets[k] = popcount8(d_masks[k]);
   });
-  check_reference_count(wide_sum(exec, "split offsets", d_offsets, selected), "octree references");
+  const std::uint64_t child_refs = wide_sum(exec, "split offsets", d_offsets, selected);
+  check_reference_count(child_refs, "octree references");
+  check_octree_memory(exec.memory_budget(), std::uint64_t(built.num_entries) + plan.children,
+                      std::uint64_t(built.num_cells) + plan.children, built.num_refs + child_refs);
   const std::uint32_t total = exec.exclusive_scan("split offsets", d_offsets, d_offsets, selected);
   RefPairs<Exec> child_pairs{exec.template allocate<std::uint32_t>(total),
                              exec.template allocate<std::uint32_t>(total), total};
@@ -346,7 +368,7 @@ OctreeLevels<Exec> build_octree_levels(Exec& exec, const GridInfo& info,
     emit_level_entries_and_cells(exec, info, nodes, plan, level, out);
     keep_leaf_pairs(exec, pairs, plan, first_cell, out);
     if (plan.children == 0) break;
-    auto next = split_level(exec, info, triangles, nodes, pairs, plan, level);
+    auto next = split_level(exec, info, triangles, nodes, pairs, plan, out, level);
     nodes = std::move(next.first);
     pairs = std::move(next.second);
     if (std::uint64_t(out.num_entries) + nodes.count > kMaxEntryTarget)
