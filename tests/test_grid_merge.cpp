@@ -33,7 +33,7 @@ const std::vector<std::string> kScenes = {"builtin:cornell", "builtin:teapot-sta
 constexpr float kAlpha = 0.995f, kCostRatio = 1.f, kEmptyAspect = BuildConfig{}.empty_aspect;
 
 Grid merged_copy(const Grid& grid, float alpha = kAlpha, float cost_ratio = kCostRatio,
-                 float empty_aspect = kEmptyAspect, float in_place_below = 1.f / 16) {
+                 float empty_aspect = kEmptyAspect, float in_place_below = kMergeInPlaceBelow) {
   CpuExecutor exec;
   Grid copy = grid;
   merge_cells(exec, copy, alpha, cost_ratio, empty_aspect, in_place_below);
@@ -90,18 +90,22 @@ TEST_P(GridMerge, CellCountDrops) {
   EXPECT_LE(c.after.info.num_refs, c.before.info.num_refs);
 }
 
-TEST_P(GridMerge, RoundsRepeatUntilOneKeepsAlphaOfTheCells) {
-  // A tiny positive alpha runs exactly one round; replay the rounds one by one.
-  const MergeCase& c = merge_case(GetParam());
-  Grid grid = c.before;
+/// Merging replayed one round per merge_cells call (a tiny positive alpha runs exactly one),
+/// stopping where a round keeps kAlpha of the cells.
+Grid merged_round_by_round(Grid grid, float in_place_below = kMergeInPlaceBelow) {
   for (int round = 0; round < 100; ++round) {
     const std::uint32_t before = grid.info.num_cells;
-    grid = merged_copy(grid, 1e-30f);
+    grid = merged_copy(grid, 1e-30f, kCostRatio, kEmptyAspect, in_place_below);
     if (grid.info.num_cells == before ||
         double(grid.info.num_cells) >= double(kAlpha) * double(before))
       break;
   }
-  EXPECT_TRUE(same_grid(grid, c.after));
+  return grid;
+}
+
+TEST_P(GridMerge, RoundsRepeatUntilOneKeepsAlphaOfTheCells) {
+  const MergeCase& c = merge_case(GetParam());
+  EXPECT_TRUE(same_grid(merged_round_by_round(c.before), c.after));
 }
 
 TEST_P(GridMerge, CellsTileTheVirtualGridExactly) {
@@ -226,15 +230,7 @@ TEST_P(GridMerge, InPlaceSweepsGiveTheSameGridAsRebuildingOnes) {
   EXPECT_TRUE(same_grid(rebuilt, c.after));
   EXPECT_TRUE(same_grid(merged_copy(c.before, kAlpha, kCostRatio, kEmptyAspect, 2.f), rebuilt));
   // Rounds replayed one by one, each ending with its absorbed cells dropped, agree too.
-  Grid grid = c.before;
-  for (int round = 0; round < 100; ++round) {
-    const std::uint32_t before = grid.info.num_cells;
-    grid = merged_copy(grid, 1e-30f, kCostRatio, kEmptyAspect, 2.f);
-    if (grid.info.num_cells == before ||
-        double(grid.info.num_cells) >= double(kAlpha) * double(before))
-      break;
-  }
-  EXPECT_TRUE(same_grid(grid, rebuilt));
+  EXPECT_TRUE(same_grid(merged_round_by_round(c.before, 2.f), rebuilt));
 }
 
 /// Random rays through the scene box, and rays that start on faces of merged cells.

@@ -43,9 +43,9 @@ class CpuExecutor {
   /// buffers (core/build/octree_depth_first.h); the result equals the level-by-level build's.
   static constexpr bool kDepthFirstOctrees = true;
 
-  /// Bytes of memory the machine has (0 when unknown): phases that grow their buffers as they
-  /// go (the depth-first octrees) stop with an error before their arrays outgrow it, instead of
-  /// being killed by the system.
+  /// Bytes of memory the machine has (0 when unknown): the octree builds stop with an error
+  /// before the build would outgrow it (check_octree_memory), instead of being killed by the
+  /// system.
   static std::uint64_t memory_budget() {
 #if defined(__linux__)
     const long pages = sysconf(_SC_PHYS_PAGES), page_size = sysconf(_SC_PAGE_SIZE);

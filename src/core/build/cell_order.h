@@ -34,6 +34,15 @@ IRGRID_HD inline std::uint64_t morton_key(const std::int32_t corner[3], int drop
          spread_bits_by_3(std::uint64_t(corner[2]) >> drop) << 2;
 }
 
+/// Bits per axis of the grid's largest voxel coordinate (what morton_key interleaves before it
+/// drops any).
+inline int morton_bits(const GridInfo& info) {
+  std::int32_t largest = 1;
+  for (int a = 0; a < 3; ++a)
+    largest = info.virtual_dims[a] > largest ? info.virtual_dims[a] : largest;
+  return int(std::bit_width(std::uint32_t(largest - 1)));
+}
+
 /// Renumbers `cells` (the leaves of all levels, before their reference ranges are set) in the
 /// Morton order of their lower corners, and rewrites what names them: the leaf entries of the
 /// voxel map and the cell of every (cell, triangle) pair. The order depends on the boxes only,
@@ -45,10 +54,7 @@ void order_cells_spatially(Exec& exec, const GridInfo& info,
                            typename Exec::template Buffer<Entry>& entries, RefPairs<Exec>& pairs,
                            std::uint32_t num_cells, std::uint32_t num_entries) {
   if (num_cells < 2) return;
-  std::int32_t largest = 1;
-  for (int a = 0; a < 3; ++a)
-    largest = info.virtual_dims[a] > largest ? info.virtual_dims[a] : largest;
-  const int bits = int(std::bit_width(std::uint32_t(largest - 1)));
+  const int bits = morton_bits(info);
   const int drop = bits > 21 ? bits - 21 : 0;
   auto keys = exec.template allocate<std::uint64_t>(num_cells);
   auto order = exec.template allocate<std::uint32_t>(num_cells);

@@ -87,9 +87,7 @@ void flatten_map(Exec& exec, GridArrays<Exec>& grid, const std::uint8_t* depth) 
       d_offsets[r] = old[root].log_dim() == 0 ? 0 : 1u << (3 * steps);
     });
     const std::uint64_t chunk = wide_sum(exec, "flatten map", d_offsets, num_roots);
-    if (written + chunk > kMaxEntryTarget)
-      throw Error(ErrorCode::limit_exceeded,
-                  "voxel map: more than 2^30 - 1 entries (lower lambda2)");
+    check_entry_count(written + chunk);
     exec.exclusive_scan("flatten map", d_offsets, d_offsets, num_roots);
     auto block = exec.template allocate<Entry>(chunk);
     auto reached = exec.template allocate<std::uint32_t>(chunk);

@@ -33,10 +33,7 @@ namespace irgrid {
 /// Whether build_top_cell_octrees gives the grid the level-by-level build gives: corners must
 /// fit the 21 bits per axis of the Morton key, so that no two cells tie in cell_order.h.
 inline bool depth_first_applies(const GridInfo& info) {
-  std::int32_t largest = 1;
-  for (int a = 0; a < 3; ++a)
-    largest = info.virtual_dims[a] > largest ? info.virtual_dims[a] : largest;
-  return std::bit_width(std::uint32_t(largest - 1)) <= 21;
+  return morton_bits(info) <= 21;
 }
 
 /// What one chunk of consecutive top cells (x-fastest order) built, with local indices: an inner
@@ -96,9 +93,11 @@ class TopCellBuilder {
             std::uint32_t slot) {
     bool split = rule_.splits_by_depth(level, top_depth_, count);
     const std::size_t mask_begin = masks_top_;
+    // Children's size; nodes of the deepest level never split.
+    const std::int32_t half =
+        level < info_.shift ? std::int32_t(1) << (info_.shift - level - 1) : 0;
     if (split || rule_.count_candidate(level, count)) {
-      const NodeSplit split_node =
-          node_split(info_, lo, std::int32_t(1) << (info_.shift - level - 1));
+      const NodeSplit split_node = node_split(info_, lo, half);
       if (masks_.size() < mask_begin + count) masks_.resize(2 * (mask_begin + count));
       masks_top_ = mask_begin + count;
       std::uint64_t child_refs = 0;
@@ -130,7 +129,6 @@ class TopCellBuilder {
     entries[slot] = Entry::inner(1, base);
     pending_entries_ += 8;
     if (pending_entries_ >= kFlushEvery || pending_refs_ >= kFlushEvery) flush_totals();
-    const std::int32_t half = std::int32_t(1) << (info_.shift - level - 1);
     for (std::uint32_t bit = 0; bit < 8; ++bit) {
       // Branch-free: every triangle is written, and the end moves on for those in the child.
       const std::size_t child_begin = lists_top_;
@@ -152,16 +150,19 @@ class TopCellBuilder {
     masks_top_ = mask_begin;
   }
 
+  /// Room for `size` entries of the list stack (its contents kept; the vector may move).
+  void reserve_lists(std::size_t size) {
+    if (lists_.size() < size) lists_.resize(2 * size);
+  }
+
   /// Adds what this builder made since the last call to the shared totals and checks the
-  /// limits of the level-by-level build, with its messages.
+  /// limits (entries, references, memory) with the level-by-level build's checks.
   void flush_totals() {
     const std::uint64_t entries = totals_.entries += pending_entries_;
     const std::uint64_t cells = totals_.cells += pending_cells_;
     const std::uint64_t refs = totals_.refs += pending_refs_;
     pending_entries_ = pending_cells_ = pending_refs_ = 0;
-    if (entries > kMaxEntryTarget)
-      throw Error(ErrorCode::limit_exceeded,
-                  "voxel map: more than 2^30 - 1 entries (lower lambda2)");
+    check_entry_count(entries);
     check_reference_count(refs, "octree references");
     check_octree_memory(totals_.memory_bytes, entries, cells, refs);
   }
@@ -175,11 +176,6 @@ class TopCellBuilder {
   std::int32_t top_depth_ = 0;
   std::uint32_t first_cell_ = 0, first_ref_ = 0;
   std::uint64_t pending_entries_ = 0, pending_cells_ = 0, pending_refs_ = 0;
-  /// Room for `size` entries of the list stack (its contents kept; the vector may move).
-  void reserve_lists(std::size_t size) {
-    if (lists_.size() < size) lists_.resize(2 * size);
-  }
-
   /// The triangle lists of the nodes on the current path, each after its parent's, and their
   /// children masks: stacks with their tops, so a node's list is found by its offset (the
   /// vectors may move; they only grow).
@@ -264,8 +260,7 @@ void assemble_top_cell_octrees(Exec& exec, TopCellOctrees<Exec>& octrees, GridAr
     level_offsets[l + 1] = level_offsets[l] + sum;
   }
   const std::uint64_t num_entries = level_offsets[levels];
-  if (num_entries > kMaxEntryTarget)
-    throw Error(ErrorCode::limit_exceeded, "voxel map: more than 2^30 - 1 entries (lower lambda2)");
+  check_entry_count(num_entries);
   // Cells and references: top cell after top cell in the Morton order of their corners.
   auto keys = exec.template allocate<std::uint64_t>(n);
   auto order = exec.template allocate<std::uint32_t>(n);
@@ -277,9 +272,7 @@ void assemble_top_cell_octrees(Exec& exec, TopCellOctrees<Exec>& octrees, GridAr
     d_keys[i] = morton_key(corner, 0);
     d_order[i] = std::uint32_t(i);
   });
-  const int bits = int(std::bit_width(std::uint32_t(
-      std::max({info.virtual_dims[0], info.virtual_dims[1], info.virtual_dims[2], 1}) - 1)));
-  exec.sort_pairs("octree top-cell order", d_keys, d_order, n, std::max(1, 3 * bits));
+  exec.sort_pairs("octree top-cell order", d_keys, d_order, n, std::max(1, 3 * morton_bits(info)));
   keys = {};
   std::vector<std::uint32_t> cell_base(n), ref_base(n), ranked(n);
   std::uint32_t* d_ranked = ranked.data();

@@ -371,9 +371,7 @@ OctreeLevels<Exec> build_octree_levels(Exec& exec, const GridInfo& info,
     auto next = split_level(exec, info, triangles, nodes, pairs, plan, out, level);
     nodes = std::move(next.first);
     pairs = std::move(next.second);
-    if (std::uint64_t(out.num_entries) + nodes.count > kMaxEntryTarget)
-      throw Error(ErrorCode::limit_exceeded,
-                  "voxel map: more than 2^30 - 1 entries (lower lambda2)");
+    check_entry_count(std::uint64_t(out.num_entries) + nodes.count);
   }
   return out;
 }

@@ -76,6 +76,12 @@ inline void check_reference_count(std::uint64_t count, const char* phase) {
                     " references exceed the limit of 2^30 - 1 (lower lambda1/lambda2)");
 }
 
+/// Throws Error{limit_exceeded} when `count` voxel-map entries do not fit the 30-bit limit.
+inline void check_entry_count(std::uint64_t count) {
+  if (count > kMaxEntryTarget)
+    throw Error(ErrorCode::limit_exceeded, "voxel map: more than 2^30 - 1 entries (lower lambda2)");
+}
+
 /// Emits the (top cell, triangle) pairs, triangle-major (so each cell's triangles ascend).
 template <typename Exec>
 RefPairs<Exec> emit_top_level_refs(Exec& exec, const TriangleVertices* triangles,
