@@ -352,7 +352,7 @@ TEST_P(GridMerge, AtAlphaOneNoCellHasAMergeLeft) {
 }
 
 // The proposals are computed in batches of CpuExecutor::kLookupBatch cells with their map walks
-// interleaved (merge.h); each must be the one merge_partner finds for its cell alone, and a
+// interleaved (merge_pairs.h); each must be the one merge_partner finds for its cell alone, and a
 // quiet cell proposes nothing. (All cases but the sphere end in a partial batch.)
 TEST_P(GridMerge, BatchedProposalsEqualSingleCellProposals) {
   const Grid& grid = merge_case(GetParam()).before;
