@@ -4,13 +4,19 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdint>
 #include <cstring>
+#include <limits>
 #include <map>
 #include <string>
+#include <vector>
 
 #include "core/build/build_grid.h"
+#include "core/random.h"
+#include "core/triangle_box.h"
 #include "cpu/cpu_executor.h"
 #include "cpu/structures.h"
+#include "irgrid/rays.h"
 #include "irgrid/scene.h"
 
 namespace irgrid::testing {
@@ -70,6 +76,93 @@ inline void expect_cells_tile_grid(const GridArrays<CpuExecutor>& grid) {
   }
   EXPECT_EQ(volume,
             std::uint64_t(info.virtual_dims[0]) * info.virtual_dims[1] * info.virtual_dims[2]);
+}
+
+/// The voxel map answers every cell's 8 corner voxels with that cell, and 20000 random voxels
+/// (drawn with `seed`) with a cell whose box holds them. For grids whose cells hold their entry
+/// boxes (before expansion).
+inline void expect_voxel_map_finds_owners(const GridArrays<CpuExecutor>& grid, std::uint64_t seed) {
+  const GridInfo& info = grid.info;
+  for (std::uint32_t id = 0; id < info.num_cells; ++id) {
+    const Cell& c = grid.cells[id];
+    for (int corner = 0; corner < 8; ++corner) {
+      const Voxel v{(corner & 1) ? c.hi[0] - 1 : c.lo[0], (corner & 2) ? c.hi[1] - 1 : c.lo[1],
+                    (corner & 4) ? c.hi[2] - 1 : c.lo[2]};
+      ASSERT_EQ(lookup_cell(info, grid.entries.data(), v), id) << "corner " << corner;
+    }
+  }
+  Pcg32 rng;
+  rng.seed(seed);
+  for (int k = 0; k < 20000; ++k) {
+    const Voxel v{std::int32_t(rng.next_u32() % std::uint32_t(info.virtual_dims[0])),
+                  std::int32_t(rng.next_u32() % std::uint32_t(info.virtual_dims[1])),
+                  std::int32_t(rng.next_u32() % std::uint32_t(info.virtual_dims[2]))};
+    const std::uint32_t id = lookup_cell(info, grid.entries.data(), v);
+    ASSERT_LT(id, info.num_cells);
+    const Cell& c = grid.cells[id];
+    for (int a = 0; a < 3; ++a)
+      ASSERT_TRUE(c.lo[a] <= v[a] && v[a] < c.hi[a]) << "voxel outside its cell";
+  }
+}
+
+/// Checks, on every cell of small grids and an even sample of about 1500 cells of larger ones,
+/// that every triangle overlapping the cell's exit box grown by `padding` is in its list
+/// (stopping at the first one missing). Returns the number of overlapping pairs seen.
+inline std::size_t check_lists_cover_exit_boxes(const GridArrays<CpuExecutor>& grid, float padding,
+                                                const std::string& what) {
+  const GridInfo& info = grid.info;
+  std::size_t overlaps = 0;
+  const std::size_t stride = std::max<std::size_t>(1, grid.cells.size() / 1500);
+  for (std::size_t id = 0; id < grid.cells.size(); id += stride) {
+    const Cell& c = grid.cells[id];
+    Vec3<float> lo, hi;
+    for (int a = 0; a < 3; ++a)
+      lo[a] = voxel_to_world(info, a, c.lo[a]), hi[a] = voxel_to_world(info, a, c.hi[a]);
+    const auto* list_begin = grid.refs.data() + c.begin;
+    const auto* list_end = grid.refs.data() + c.end;
+    for (std::uint32_t t = 0; t < info.num_triangles; ++t) {
+      const auto& tri = grid.triangles[t];
+      if (!triangle_overlaps_box(tri.p0, tri.p1, tri.p2, lo, hi, padding)) continue;
+      ++overlaps;
+      EXPECT_TRUE(std::binary_search(list_begin, list_end, t))
+          << what << ": triangle " << t << " touches the exit box of cell " << id
+          << " but is not in its list";
+      if (!std::binary_search(list_begin, list_end, t)) return overlaps;
+    }
+  }
+  return overlaps;
+}
+
+/// Appends `ray` and the same line started `distance` behind its origin with tmin 0 and no
+/// tmax: a walk that enters the grid from far outside.
+inline void append_with_far_start(std::vector<Ray>& rays, const Ray& ray, float distance) {
+  rays.push_back(ray);
+  Ray from_outside = ray;
+  for (int b = 0; b < 3; ++b)
+    from_outside.org[b] -= distance * ray.dir[b];
+  from_outside.tmin = 0, from_outside.tmax = std::numeric_limits<float>::infinity();
+  rays.push_back(from_outside);
+}
+
+/// Appends axis-parallel rays from outside the scene through the first vertex and the first
+/// edge's midpoint of each of the first 300 triangles, along each axis.
+inline void append_axis_rays_through_vertices(const Scene& scene, std::vector<Ray>& rays) {
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  for (std::size_t t = 0; t < scene.triangles.size() && t < 300; ++t) {
+    const auto& v = scene.vertices[scene.triangles[t][0]];
+    const auto& w = scene.vertices[scene.triangles[t][1]];
+    for (int a = 0; a < 3; ++a) {
+      Ray ray{{v[0], v[1], v[2]}, 0, {0, 0, 0}, kInf};
+      ray.org[a] = scene.bounds().lo[a] - 1;
+      ray.dir[a] = 1;
+      rays.push_back(ray);
+      Ray mid{
+          {0.5f * (v[0] + w[0]), 0.5f * (v[1] + w[1]), 0.5f * (v[2] + w[2])}, 0, {0, 0, 0}, kInf};
+      mid.org[a] = scene.bounds().hi[a] + 1;
+      mid.dir[a] = -1;
+      rays.push_back(mid);
+    }
+  }
 }
 
 }  // namespace irgrid::testing

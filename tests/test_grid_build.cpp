@@ -31,28 +31,7 @@ TEST_P(GridBuild, CellsTileTheVirtualGridExactly) {
 }
 
 TEST_P(GridBuild, VoxelMapReturnsTheCellContainingEachVoxel) {
-  const auto grid = build_test_grid(load_scene(GetParam()));
-  const GridInfo& info = grid.info;
-  Pcg32 rng;
-  rng.seed(17);
-  std::vector<std::uint32_t> owners(info.num_cells, 0);
-  for (int k = 0; k < 20000; ++k) {
-    const Voxel v{std::int32_t(rng.next_u32() % std::uint32_t(info.virtual_dims[0])),
-                  std::int32_t(rng.next_u32() % std::uint32_t(info.virtual_dims[1])),
-                  std::int32_t(rng.next_u32() % std::uint32_t(info.virtual_dims[2]))};
-    const std::uint32_t id = lookup_cell(info, grid.entries.data(), v);
-    ASSERT_LT(id, info.num_cells);
-    const Cell& c = grid.cells[id];
-    for (int a = 0; a < 3; ++a)
-      ASSERT_TRUE(c.lo[a] <= v[a] && v[a] < c.hi[a]) << "voxel outside its cell";
-  }
-  // Every cell owns its own corner voxels.
-  for (std::uint32_t id = 0; id < info.num_cells; ++id) {
-    const Cell& c = grid.cells[id];
-    ASSERT_EQ(lookup_cell(info, grid.entries.data(), Voxel{c.lo[0], c.lo[1], c.lo[2]}), id);
-    ASSERT_EQ(lookup_cell(info, grid.entries.data(), Voxel{c.hi[0] - 1, c.hi[1] - 1, c.hi[2] - 1}),
-              id);
-  }
+  testing::expect_voxel_map_finds_owners(build_test_grid(load_scene(GetParam())), 17);
 }
 
 TEST_P(GridBuild, BatchedLookupsEqualSingleLookups) {
@@ -94,27 +73,8 @@ TEST_P(GridBuild, ListsAreSortedUniqueAndCoverTheReferenceArray) {
 }
 
 TEST_P(GridBuild, EveryTriangleTouchingACellIsInItsList) {
-  const Scene scene = load_scene(GetParam());
-  const auto grid = build_test_grid(scene, BuildConfig{});
-  const GridInfo& info = grid.info;
-  std::size_t overlaps = 0;
-  // Every cell of small grids; an even sample of about 1500 cells of larger ones.
-  const std::size_t stride = std::max<std::size_t>(1, grid.cells.size() / 1500);
-  for (std::size_t id = 0; id < grid.cells.size(); id += stride) {
-    const Cell& c = grid.cells[id];
-    Vec3<float> lo, hi;
-    for (int a = 0; a < 3; ++a)
-      lo[a] = voxel_to_world(info, a, c.lo[a]), hi[a] = voxel_to_world(info, a, c.hi[a]);
-    const auto* list_begin = grid.refs.data() + c.begin;
-    const auto* list_end = grid.refs.data() + c.end;
-    for (std::uint32_t t = 0; t < info.num_triangles; ++t) {
-      const auto& tri = grid.triangles[t];
-      if (!triangle_overlaps_box(tri.p0, tri.p1, tri.p2, lo, hi, 0.f)) continue;
-      ++overlaps;
-      ASSERT_TRUE(std::binary_search(list_begin, list_end, t)) << "triangle " << t << " missing";
-    }
-  }
-  EXPECT_GT(overlaps, 0u);
+  const auto grid = build_test_grid(load_scene(GetParam()), BuildConfig{});
+  EXPECT_GT(testing::check_lists_cover_exit_boxes(grid, 0.f, "defaults"), 0u);
 }
 
 // The world box of the top cells from `top` towards `octant` as far as `radius` (>= 1), clipped

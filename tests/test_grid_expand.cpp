@@ -93,43 +93,17 @@ GridView view_of(const Grid& grid) {
           nullptr,   grid.refs.data(),    grid.triangles.data()};
 }
 
-/// Checks, on every cell of small grids and an even sample of about 1500 cells of larger ones,
-/// that every triangle overlapping the cell's exit box grown by `padding` is in its list.
-/// Returns the number of overlapping pairs seen.
-std::size_t check_lists_cover_exit_boxes(const Grid& grid, float padding, const std::string& what) {
-  const GridInfo& info = grid.info;
-  std::size_t overlaps = 0;
-  const std::size_t stride = std::max<std::size_t>(1, grid.cells.size() / 1500);
-  for (std::size_t id = 0; id < grid.cells.size(); id += stride) {
-    const Cell& c = grid.cells[id];
-    Vec3<float> lo, hi;
-    for (int a = 0; a < 3; ++a)
-      lo[a] = voxel_to_world(info, a, c.lo[a]), hi[a] = voxel_to_world(info, a, c.hi[a]);
-    const auto* list_begin = grid.refs.data() + c.begin;
-    const auto* list_end = grid.refs.data() + c.end;
-    for (std::uint32_t t = 0; t < info.num_triangles; ++t) {
-      const auto& tri = grid.triangles[t];
-      if (!triangle_overlaps_box(tri.p0, tri.p1, tri.p2, lo, hi, padding)) continue;
-      ++overlaps;
-      EXPECT_TRUE(std::binary_search(list_begin, list_end, t))
-          << what << ": triangle " << t << " touches the exit box of cell " << id
-          << " but is not in its list";
-      if (!std::binary_search(list_begin, list_end, t)) return overlaps;
-    }
-  }
-  return overlaps;
-}
-
 class GridExpand : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(GridExpand, EveryTriangleTouchingAnExitBoxIsInItsList) {
   const ExpandCase& c = expand_case(GetParam());
   for (const Setting& setting : kSettings) {
     const Grid& grid = c.after.at(setting);
-    EXPECT_GT(check_lists_cover_exit_boxes(grid, 0.f, setting.name()), 0u);
+    EXPECT_GT(testing::check_lists_cover_exit_boxes(grid, 0.f, setting.name()), 0u);
     // Stronger: expansion keeps the insertion test's padding (half of it here, which leaves room
     // for the rounding of the top-level boxes), which traversal relies on.
-    check_lists_cover_exit_boxes(grid, 0.5f * grid.info.padding, setting.name() + ", padded");
+    testing::check_lists_cover_exit_boxes(grid, 0.5f * grid.info.padding,
+                                          setting.name() + ", padded");
   }
 }
 
@@ -210,28 +184,9 @@ std::vector<Ray> test_rays(const Scene& scene, const Grid& before, const Grid& a
     }
     ray.tmin = (k % 5 == 0) ? 0.01f * diagonal : 0.f;
     ray.tmax = (k % 7 == 0) ? 0.2f * diagonal : kInf;
-    rays.push_back(ray);
-    Ray from_outside = ray;
-    for (int b = 0; b < 3; ++b)
-      from_outside.org[b] -= 10 * diagonal * ray.dir[b];
-    from_outside.tmin = 0, from_outside.tmax = kInf;
-    rays.push_back(from_outside);
+    testing::append_with_far_start(rays, ray, 10 * diagonal);
   }
-  for (std::size_t t = 0; t < scene.triangles.size() && t < 300; ++t) {
-    const auto& v = scene.vertices[scene.triangles[t][0]];
-    const auto& w = scene.vertices[scene.triangles[t][1]];
-    for (int a = 0; a < 3; ++a) {
-      Ray ray{{v[0], v[1], v[2]}, 0, {0, 0, 0}, kInf};
-      ray.org[a] = scene.bounds().lo[a] - 1;
-      ray.dir[a] = 1;
-      rays.push_back(ray);
-      Ray mid{
-          {0.5f * (v[0] + w[0]), 0.5f * (v[1] + w[1]), 0.5f * (v[2] + w[2])}, 0, {0, 0, 0}, kInf};
-      mid.org[a] = scene.bounds().hi[a] + 1;
-      mid.dir[a] = -1;
-      rays.push_back(mid);
-    }
-  }
+  testing::append_axis_rays_through_vertices(scene, rays);
   return rays;
 }
 

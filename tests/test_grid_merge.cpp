@@ -114,28 +114,7 @@ TEST_P(GridMerge, CellsTileTheVirtualGridExactly) {
 }
 
 TEST_P(GridMerge, VoxelMapReturnsTheMergedCells) {
-  const Grid& grid = merge_case(GetParam()).after;
-  const GridInfo& info = grid.info;
-  for (std::uint32_t id = 0; id < info.num_cells; ++id) {
-    const Cell& c = grid.cells[id];
-    for (int corner = 0; corner < 8; ++corner) {
-      const Voxel v{(corner & 1) ? c.hi[0] - 1 : c.lo[0], (corner & 2) ? c.hi[1] - 1 : c.lo[1],
-                    (corner & 4) ? c.hi[2] - 1 : c.lo[2]};
-      ASSERT_EQ(lookup_cell(info, grid.entries.data(), v), id) << "corner " << corner;
-    }
-  }
-  Pcg32 rng;
-  rng.seed(23);
-  for (int k = 0; k < 20000; ++k) {
-    const Voxel v{std::int32_t(rng.next_u32() % std::uint32_t(info.virtual_dims[0])),
-                  std::int32_t(rng.next_u32() % std::uint32_t(info.virtual_dims[1])),
-                  std::int32_t(rng.next_u32() % std::uint32_t(info.virtual_dims[2]))};
-    const std::uint32_t id = lookup_cell(info, grid.entries.data(), v);
-    ASSERT_LT(id, info.num_cells);
-    const Cell& c = grid.cells[id];
-    for (int a = 0; a < 3; ++a)
-      ASSERT_TRUE(c.lo[a] <= v[a] && v[a] < c.hi[a]) << "voxel outside its cell";
-  }
+  testing::expect_voxel_map_finds_owners(merge_case(GetParam()).after, 23);
 }
 
 TEST_P(GridMerge, ListsAreSortedUniqueAndCoverTheReferenceArray) {

@@ -61,29 +61,9 @@ std::vector<Ray> adversarial_rays(const Scene& scene) {
     }
     ray.tmin = (k % 5 == 0) ? 0.01f * scene.bounds().diagonal() : 0.f;
     ray.tmax = (k % 7 == 0) ? 0.2f * scene.bounds().diagonal() : kInf;
-    rays.push_back(ray);
-    Ray from_outside = ray;  // the same line, started far away
-    for (int b = 0; b < 3; ++b)
-      from_outside.org[b] -= 10 * scene.bounds().diagonal() * ray.dir[b];
-    from_outside.tmin = 0, from_outside.tmax = kInf;
-    rays.push_back(from_outside);
+    testing::append_with_far_start(rays, ray, 10 * scene.bounds().diagonal());
   }
-  // Axis-parallel rays through vertices and edge midpoints.
-  for (std::size_t t = 0; t < scene.triangles.size() && t < 300; ++t) {
-    const auto& v = scene.vertices[scene.triangles[t][0]];
-    const auto& w = scene.vertices[scene.triangles[t][1]];
-    for (int a = 0; a < 3; ++a) {
-      Ray ray{{v[0], v[1], v[2]}, 0, {0, 0, 0}, kInf};
-      ray.org[a] = scene.bounds().lo[a] - 1;
-      ray.dir[a] = 1;
-      rays.push_back(ray);
-      Ray mid{
-          {0.5f * (v[0] + w[0]), 0.5f * (v[1] + w[1]), 0.5f * (v[2] + w[2])}, 0, {0, 0, 0}, kInf};
-      mid.org[a] = scene.bounds().hi[a] + 1;
-      mid.dir[a] = -1;
-      rays.push_back(mid);
-    }
-  }
+  testing::append_axis_rays_through_vertices(scene, rays);
   return rays;
 }
 
