@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <cstring>
 #include <limits>
@@ -76,6 +77,40 @@ inline void expect_cells_tile_grid(const GridArrays<CpuExecutor>& grid) {
   }
   EXPECT_EQ(volume,
             std::uint64_t(info.virtual_dims[0]) * info.virtual_dims[1] * info.virtual_dims[2]);
+}
+
+/// A scene of the given triangles (invalid ones dropped, as the loaders do).
+inline Scene scene_from_triangles(const std::vector<std::array<Vec3f, 3>>& triangles) {
+  Scene scene;
+  scene.name = "test";
+  for (const auto& tri : triangles) {
+    const auto base = std::uint32_t(scene.vertices.size());
+    for (const auto& v : tri)
+      scene.vertices.push_back(v);
+    scene.triangles.push_back({base, base + 1, base + 2});
+  }
+  drop_invalid_triangles(scene);
+  return scene;
+}
+
+/// An n x n grid of unit squares in the plane z = 0, two triangles each: a flat scene.
+inline std::vector<std::array<Vec3f, 3>> flat_mesh_triangles(int n) {
+  std::vector<std::array<Vec3f, 3>> triangles;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      const float x = float(i), y = float(j);
+      triangles.push_back({{{x, y, 0}, {x + 1, y, 0}, {x + 1, y + 1, 0}}});
+      triangles.push_back({{{x, y, 0}, {x + 1, y + 1, 0}, {x, y + 1, 0}}});
+    }
+  return triangles;
+}
+
+/// A unit square beside a sliver 100,000 units long and one unit wide: the scene's box is thin on
+/// two axes, its padding (relative to the largest coordinate) near a unit.
+inline std::vector<std::array<Vec3f, 3>> sliver_beside_square_triangles() {
+  return {{{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}}},
+          {{{0, 0, 0}, {1, 1, 0}, {0, 1, 0}}},
+          {{{0, 0, 0}, {1e5f, 0, 0}, {1e5f, 1, 1}}}};
 }
 
 /// The voxel map answers every cell's 8 corner voxels with that cell, and 20000 random voxels

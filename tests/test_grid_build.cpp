@@ -34,6 +34,38 @@ TEST_P(GridBuild, VoxelMapReturnsTheCellContainingEachVoxel) {
   testing::expect_voxel_map_finds_owners(build_test_grid(load_scene(GetParam())), 17);
 }
 
+// Finer voxels than the insertion padding cannot separate triangles; the octree never makes
+// them (deepest_octree_depth_within).
+void expect_voxels_at_least_two_paddings_wide(const GridInfo& info, const std::string& what) {
+  for (int a = 0; a < 3; ++a)
+    EXPECT_GE(double(info.box_hi[a] - info.box_lo[a]) / double(info.virtual_dims[a]),
+              2.0 * double(info.padding))
+        << what << ", axis " << a;
+}
+
+TEST_P(GridBuild, VoxelsAreAtLeastTwoPaddingsWide) {
+  const auto grid = build_test_grid(load_scene(GetParam()), BuildConfig{});
+  expect_voxels_at_least_two_paddings_wide(grid.info, GetParam());
+}
+
+TEST(GridBuildShapes, FlatAndThinScenesDoNotMultiplyCells) {
+  // An octree splits all three axes. A flat scene's box is a few paddings thick, and its top
+  // cells once got the octree depth of that thin volume: 80,000 triangles in a plane made 25
+  // million cells (76 s, 980 MiB); the sliver's build ran out of memory.
+  // Measured on this 7,200-triangle plane before and after the fix: the initial grid's cells
+  // 10.9 million -> 53,824, the merged and expanded grid's 2.24 million -> 13,744.
+  const Scene flat = testing::scene_from_triangles(testing::flat_mesh_triangles(60));
+  const auto initial = build_test_grid(flat, testing::initial_grid_config());
+  expect_voxels_at_least_two_paddings_wide(initial.info, "flat mesh");
+  EXPECT_LE(initial.cells.size(), 16 * flat.triangles.size()) << "flat mesh, initial grid";
+  EXPECT_LE(build_test_grid(flat, BuildConfig{}).cells.size(), 4 * flat.triangles.size())
+      << "flat mesh";
+  const Scene sliver = testing::scene_from_triangles(testing::sliver_beside_square_triangles());
+  const auto grid = build_test_grid(sliver, BuildConfig{});
+  expect_voxels_at_least_two_paddings_wide(grid.info, "sliver");
+  EXPECT_LE(grid.cells.size(), 1000u) << "sliver";
+}
+
 TEST_P(GridBuild, BatchedLookupsEqualSingleLookups) {
   // lookup_cells interleaves the map walks of a batch; every batch size up to its bound must
   // give each voxel the owner lookup_cell finds, whatever depths the walks in a batch reach.

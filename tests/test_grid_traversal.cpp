@@ -22,19 +22,6 @@ namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
-Scene scene_from_triangles(const std::vector<std::array<Vec3f, 3>>& triangles) {
-  Scene scene;
-  scene.name = "test";
-  for (const auto& tri : triangles) {
-    const auto base = std::uint32_t(scene.vertices.size());
-    for (const auto& v : tri)
-      scene.vertices.push_back(v);
-    scene.triangles.push_back({base, base + 1, base + 2});
-  }
-  drop_invalid_triangles(scene);
-  return scene;
-}
-
 /// Rays that start on cell faces and grid boundaries, run along grid planes and axes, start
 /// inside cells with tmin > 0, stop early with tmax, and come from far outside.
 std::vector<Ray> adversarial_rays(const Scene& scene) {
@@ -288,9 +275,10 @@ TEST(GridTraversal, DegenerateScenes) {
       {"tiny and huge",
        {{{{0, 0, 0}, {1e-4f, 0, 0}, {0, 1e-4f, 0}}},
         {{{-1e4f, -1e4f, 5}, {1e4f, -1e4f, 5}, {0, 1e4f, 5}}}}},
+      {"flat mesh", testing::flat_mesh_triangles(30)},
   };
   for (const auto& [what, triangles] : scenes) {
-    const Scene scene = scene_from_triangles(triangles);
+    const Scene scene = testing::scene_from_triangles(triangles);
     const auto rays = adversarial_rays(scene);
     for (const char* structure : {"irregular", "two-level", "uniform"})
       expect_exact(scene, structure, {}, rays, what);
@@ -298,7 +286,7 @@ TEST(GridTraversal, DegenerateScenes) {
 }
 
 TEST(GridTraversal, ScenesWithoutValidTrianglesMissEverything) {
-  const Scene scene = scene_from_triangles({{{{1, 1, 1}, {1, 1, 1}, {1, 1, 1}}}});
+  const Scene scene = testing::scene_from_triangles({{{{1, 1, 1}, {1, 1, 1}, {1, 1, 1}}}});
   ASSERT_EQ(scene.triangle_count(), 0u);
   const auto accelerator = make_accelerator(scene, "irregular");
   const std::vector<Ray> rays = {{{0, 0, 0}, 0, {1, 1, 1}, kInf}};

@@ -53,9 +53,9 @@ OctreeDepths<Exec> plan_octree_depths(Exec& exec, GridInfo& info, const RefPairs
   const Vec3<float> size = top_cell_size(info);
   const std::int32_t max_depth =
       config.shape == BuildConfig::Shape::uniform ? 0 : max_octree_depth(info);
-  const float lambda2 = config.lambda2;
+  const float lambda2 = config.lambda2, flat = flat_cell_extent(info);
   exec.for_each("depth", n, [=] IRGRID_HD(std::size_t i) {
-    d_depths[i] = octree_depth(size, lambda2, d_counts[i], max_depth);
+    d_depths[i] = octree_depth(size, lambda2, d_counts[i], max_depth, flat);
   });
   out.deepest_lambda2 =
       exec.reduce("max depth", d_depths, n, std::int32_t(0),

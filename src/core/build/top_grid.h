@@ -27,6 +27,19 @@ inline float insertion_padding(const BoxF& box) {
   return std::fmax(magnitude * 0x1p-17f, 1e-30f);
 }
 
+/// How far plan_top_grid grows the triangles' box on each side: 4 paddings. An axis along which
+/// the triangles span no more than this is flat (one top cell, left out of Cleary's density).
+inline float grid_margin(const GridInfo& info) {
+  return 4 * info.padding;
+}
+
+/// Top cells no thicker than this along an axis are flat there when their octree depth is
+/// planned (octree_depth): a flat axis's box is its triangles' span (at most one margin) plus a
+/// margin on each side.
+inline float flat_cell_extent(const GridInfo& info) {
+  return 3 * grid_margin(info);
+}
+
 /// x^k for k in 1..3 with correctly rounded products only (no libm), so host and device agree.
 IRGRID_HD inline double power_of(double x, int k) {
   return k == 1 ? x : (k == 2 ? x * x : x * x * x);
@@ -84,7 +97,7 @@ GridInfo plan_top_grid(Exec& exec, const TriangleVertices* triangles, std::uint3
   info.num_triangles = count;
   info.padding = insertion_padding(box);
   // Grow the box so that padded triangles lie inside and no axis has zero extent.
-  const float margin = 4 * info.padding;
+  const float margin = grid_margin(info);
   Vec3<float> extent;
   for (int a = 0; a < 3; ++a) {
     info.box_lo[a] = box.lo[a] - margin;
@@ -118,25 +131,35 @@ inline void set_virtual_resolution(GridInfo& info, std::int32_t shift) {
   }
 }
 
-/// Largest octree depth D (at most 20) at which R << D stays within `resolution` per axis.
+/// Largest octree depth D (at most 20) at which R << D stays within `resolution` per axis and
+/// voxels stay at least the insertion padding wide on every axis. Finer voxels cannot separate
+/// triangles (each one lists every triangle within the padding) and only multiply cells: the
+/// octree splits all three axes, and a flat scene's box, 8 paddings thick, would otherwise be
+/// cut into slices far thinner than the padding, all those near the plane holding its triangles
+/// (an 80,000-triangle plane took 76 s and 980 MiB to build).
 inline std::int32_t deepest_octree_depth_within(const GridInfo& info, std::int64_t resolution) {
   std::int32_t depth = 0;
   while (depth < 20) {
     bool fits = true;
-    for (int a = 0; a < 3; ++a)
-      fits &= (std::int64_t(info.top_dims[a]) << (depth + 1)) <= resolution;
+    for (int a = 0; a < 3; ++a) {
+      const std::int64_t voxels = std::int64_t(info.top_dims[a]) << (depth + 1);
+      fits &= voxels <= resolution && double(info.box_hi[a] - info.box_lo[a]) / double(voxels) >=
+                                          2.0 * double(info.padding);
+    }
     if (!fits) break;
     ++depth;
   }
   return depth;
 }
 
-/// Largest octree depth the virtual grid allows: R << D stays within kMaxVirtualResolution.
+/// Largest octree depth the virtual grid allows: R << D stays within kMaxVirtualResolution,
+/// voxels no thinner than the padding.
 inline std::int32_t max_octree_depth(const GridInfo& info) {
   return deepest_octree_depth_within(info, kMaxVirtualResolution);
 }
 
-/// Finest octree depth at which the virtual grid still fits 16-bit compressed cells.
+/// Finest octree depth at which the virtual grid still fits 16-bit compressed cells (voxels no
+/// thinner than the padding).
 inline std::int32_t compact_octree_depth(const GridInfo& info) {
   return deepest_octree_depth_within(info, kMaxCompactResolution);
 }

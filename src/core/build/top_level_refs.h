@@ -114,10 +114,14 @@ RefPairs<Exec> emit_top_level_refs(Exec& exec, const TriangleVertices* triangles
 
 /// Octree depth of a top cell holding `count` references: Cleary's resolution with λ2 inside
 /// the cell, rounded up to a power of two (integer arithmetic, identical on host and device).
+/// Axes along which the cell is no thicker than `flat` (flat_cell_extent) are left out of the
+/// density, as in the top grid: a flat scene's cells then get the depth their area asks for,
+/// not the far greater one a volume a few paddings thick would.
 IRGRID_HD inline std::int32_t octree_depth(const Vec3<float>& cell_size, float lambda2,
-                                           std::uint32_t count, std::int32_t max_depth) {
+                                           std::uint32_t count, std::int32_t max_depth,
+                                           float flat) {
   double dims[3];
-  cleary_resolution(cell_size, lambda2, count, 0.f, dims);
+  cleary_resolution(cell_size, lambda2, count, flat, dims);
   const double largest = fmax(dims[0], fmax(dims[1], dims[2]));
   if (!(largest > 1)) return 0;
   // ceil(log2(largest)) for an integer largest >= 2: the bit width of largest - 1.
