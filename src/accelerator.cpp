@@ -53,6 +53,7 @@ std::string resolve_backend(const std::string& backend) {
 std::unique_ptr<Accelerator> make_accelerator(const Scene& scene, const std::string& structure,
                                               const AcceleratorOptions& options) {
   const auto backend = resolve_backend(options.backend);
+  check_scene(scene);
   if (structure == "brute") {
 #if IRGRID_HAS_CUDA
     if (backend == "cuda") return make_brute_force_cuda(scene);

@@ -1,6 +1,9 @@
 // Every structure built into this binary agrees with the double-precision brute force.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <string>
+
 #include "irgrid/accelerator.h"
 #include "irgrid/error.h"
 #include "irgrid/rays.h"
@@ -73,6 +76,59 @@ TEST_P(EveryStructure, RejectsMismatchedSpans) {
   std::vector<Ray> rays(3);
   std::vector<Hit> hits(2);
   EXPECT_THROW(structure->trace(rays, hits, Query::closest), Error);
+}
+
+/// A unit square in z = 0 made of two triangles, built by hand as a library user would.
+Scene hand_made_square() {
+  Scene scene;
+  scene.name = "hand-made";
+  scene.vertices = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  scene.triangles = {{0, 1, 2}, {0, 2, 3}};
+  return scene;
+}
+
+/// The message of the Error that building `structure` over `scene` throws ("" if none).
+std::string build_error(const Scene& scene, const std::string& structure) {
+  try {
+    make_accelerator(scene, structure);
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ErrorCode::invalid_argument);
+    return e.what();
+  }
+  return "";
+}
+
+TEST_P(EveryStructure, RejectsHandMadeScenesWithBadIndicesOrVertices) {
+  Scene bad_index = hand_made_square();
+  bad_index.triangles.push_back({0, 1, 1000000});
+  const std::string index_error = build_error(bad_index, GetParam());
+  EXPECT_NE(index_error.find("triangle 2 names vertex 1000000"), std::string::npos) << index_error;
+  Scene not_finite = hand_made_square();
+  not_finite.vertices.push_back({std::nanf(""), 0, 0});
+  not_finite.triangles.push_back({0, 1, 4});
+  const std::string vertex_error = build_error(not_finite, GetParam());
+  EXPECT_NE(vertex_error.find("triangle 2 uses vertex 4"), std::string::npos) << vertex_error;
+  EXPECT_NE(vertex_error.find("not finite"), std::string::npos) << vertex_error;
+  // What drop_invalid_triangles leaves builds, and rays down through the square hit it.
+  drop_invalid_triangles(not_finite);
+  const auto structure = make_accelerator(not_finite, GetParam());
+  const std::vector<Ray> rays = {{{0.25f, 0.5f, 1}, 0, {0, 0, -1}, 10},
+                                 {{0.75f, 0.5f, 1}, 0, {0, 0, -1}, 10}};
+  std::vector<Hit> hits(rays.size());
+  structure->trace(rays, hits, Query::closest);
+  EXPECT_TRUE(hits[0].hit() && hits[1].hit());
+}
+
+TEST_P(EveryStructure, EmptyScenesBuildAndMissEverything) {
+  Scene empty;
+  empty.name = "empty";
+  const auto structure = make_accelerator(empty, GetParam());
+  const std::vector<Ray> rays = {{{0, 0, 0}, 0, {1, 0, 0}, 1e30f}};
+  std::vector<Hit> hits(rays.size());
+  for (Query query : {Query::closest, Query::any}) {
+    structure->trace(rays, hits, query);
+    EXPECT_FALSE(hits[0].hit());
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Cpu, EveryStructure, ::testing::ValuesIn(available_structures()));

@@ -72,4 +72,11 @@ Scene make_builtin_scene(const std::string& spec);
 /// them into scene.report, and fills input_ids. Loaders call it once at the end.
 void drop_invalid_triangles(Scene& scene);
 
+/// Throws Error{invalid_argument} naming the first triangle that has a vertex index out of range
+/// or a vertex with a NaN or infinite coordinate (loaded scenes never do: their loaders drop
+/// such triangles; call drop_invalid_triangles on a scene built by hand to do the same).
+/// make_accelerator checks every scene with it before building. Zero-area triangles are valid:
+/// no ray hits them.
+void check_scene(const Scene& scene);
+
 }  // namespace irgrid

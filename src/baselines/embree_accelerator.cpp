@@ -59,20 +59,8 @@ class EmbreeCpu final : public Accelerator {
     rtcSetDeviceMemoryMonitorFunction(device_, &EmbreeCpu::count_bytes, &bytes_);
     scene_ = rtcNewScene(device_);
     rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_MEDIUM);
-    RTCGeometry geometry = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* vertices = static_cast<float*>(
-        rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                3 * sizeof(float), scene.vertices.size()));
-    auto* indices = static_cast<std::uint32_t*>(
-        rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                3 * sizeof(std::uint32_t), scene.triangles.size()));
-    if (!vertices || !indices) throw_embree_error(device_, "allocating geometry buffers");
-    std::memcpy(vertices, scene.vertices.data(), scene.vertices.size() * 3 * sizeof(float));
-    std::memcpy(indices, scene.triangles.data(),
-                scene.triangles.size() * 3 * sizeof(std::uint32_t));
-    rtcCommitGeometry(geometry);
-    rtcAttachGeometry(scene_, geometry);
-    rtcReleaseGeometry(geometry);
+    // An empty scene commits with no geometry (Embree cannot allocate empty buffers).
+    if (!scene.triangles.empty()) attach_triangles(scene);
     {
       const DenormalsAreZero denormals_are_zero;  // the build runs on this thread and TBB's
       rtcCommitScene(scene_);
@@ -113,6 +101,27 @@ class EmbreeCpu final : public Accelerator {
   }
 
  private:
+  /// Copies the scene's vertices and triangles into one Embree triangle geometry of scene_.
+  void attach_triangles(const Scene& scene) {
+    RTCGeometry geometry = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
+    auto* vertices = static_cast<float*>(
+        rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                3 * sizeof(float), scene.vertices.size()));
+    auto* indices = static_cast<std::uint32_t*>(
+        rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                3 * sizeof(std::uint32_t), scene.triangles.size()));
+    if (!vertices || !indices) {
+      rtcReleaseGeometry(geometry);
+      throw_embree_error(device_, "allocating geometry buffers");
+    }
+    std::memcpy(vertices, scene.vertices.data(), scene.vertices.size() * 3 * sizeof(float));
+    std::memcpy(indices, scene.triangles.data(),
+                scene.triangles.size() * 3 * sizeof(std::uint32_t));
+    rtcCommitGeometry(geometry);
+    rtcAttachGeometry(scene_, geometry);
+    rtcReleaseGeometry(geometry);
+  }
+
   static RTCRay to_embree(const Ray& ray) {
     RTCRay r;
     r.org_x = ray.org[0], r.org_y = ray.org[1], r.org_z = ray.org[2], r.tnear = ray.tmin;

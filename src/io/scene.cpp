@@ -1,7 +1,11 @@
-// Scene helpers shared by every loader: bounds and dropping invalid triangles.
+// Scene helpers shared by every loader and structure: bounds, checking and dropping invalid
+// triangles.
+#include <fmt/format.h>
+
 #include <cmath>
 
 #include "core/vec.h"
+#include "irgrid/error.h"
 #include "irgrid/scene.h"
 
 namespace irgrid {
@@ -59,6 +63,24 @@ void drop_invalid_triangles(Scene& scene) {
   }
   scene.triangles.resize(kept);
   scene.triangles.shrink_to_fit();
+}
+
+void check_scene(const Scene& scene) {
+  const auto vertex_count = scene.vertices.size();
+  for (std::size_t i = 0; i < scene.triangles.size(); ++i)
+    for (const std::uint32_t index : scene.triangles[i]) {
+      if (index >= vertex_count)
+        throw Error(ErrorCode::invalid_argument,
+                    fmt::format("scene '{}': triangle {} names vertex {}, but the scene has {} "
+                                "vertices (drop_invalid_triangles removes such triangles)",
+                                scene.name, i, index, vertex_count));
+      const auto& p = scene.vertices[index];
+      if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+        throw Error(ErrorCode::invalid_argument,
+                    fmt::format("scene '{}': triangle {} uses vertex {} = ({}, {}, {}), which is "
+                                "not finite (drop_invalid_triangles removes such triangles)",
+                                scene.name, i, index, p[0], p[1], p[2]));
+    }
 }
 
 }  // namespace irgrid
