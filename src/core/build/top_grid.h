@@ -132,8 +132,8 @@ inline void set_virtual_resolution(GridInfo& info, std::int32_t shift) {
 }
 
 /// Largest octree depth D (at most 20) at which R << D stays within `resolution` per axis and
-/// voxels stay at least the insertion padding wide on every axis. Finer voxels cannot separate
-/// triangles (each one lists every triangle within the padding) and only multiply cells: the
+/// voxels stay at least twice the insertion padding wide on every axis. Finer voxels cannot
+/// separate triangles (each one lists every triangle within the padding) and multiply cells: the
 /// octree splits all three axes, and a flat scene's box, 8 paddings thick, would otherwise be
 /// cut into slices far thinner than the padding, all those near the plane holding its triangles
 /// (an 80,000-triangle plane took 76 s and 980 MiB to build).
@@ -153,13 +153,13 @@ inline std::int32_t deepest_octree_depth_within(const GridInfo& info, std::int64
 }
 
 /// Largest octree depth the virtual grid allows: R << D stays within kMaxVirtualResolution,
-/// voxels no thinner than the padding.
+/// voxels no thinner than twice the padding.
 inline std::int32_t max_octree_depth(const GridInfo& info) {
   return deepest_octree_depth_within(info, kMaxVirtualResolution);
 }
 
 /// Finest octree depth at which the virtual grid still fits 16-bit compressed cells (voxels no
-/// thinner than the padding).
+/// thinner than twice the padding).
 inline std::int32_t compact_octree_depth(const GridInfo& info) {
   return deepest_octree_depth_within(info, kMaxCompactResolution);
 }
