@@ -95,8 +95,9 @@ class EmbreeCpu final : public Accelerator {
         return;
       }
       for (std::size_t i = range.begin(); i != range.end(); ++i)
-        hits[i] =
-            query == Query::closest ? intersect(rays[i], context) : occluded(rays[i], context);
+        hits[i] = !embree_accepts(rays[i])  ? Hit{}
+                  : query == Query::closest ? intersect(rays[i], context)
+                                            : occluded(rays[i], context);
     });
   }
 
@@ -120,6 +121,18 @@ class EmbreeCpu final : public Accelerator {
     rtcCommitGeometry(geometry);
     rtcAttachGeometry(scene_, geometry);
     rtcReleaseGeometry(geometry);
+  }
+
+  /// Whether Embree may be given the ray. Embree 3 asserts (Debian's build aborts) on a ray
+  /// whose origin or direction has a component that is not a number or exceeds 1.844e18 in
+  /// magnitude, or whose tnear or tfar is not a number; and a ray with tmin > tmax has no
+  /// interval to hit in (its tfar could even read as "occluded"). Such rays miss, as they do in
+  /// irgrid's own structures.
+  static bool embree_accepts(const Ray& ray) {
+    constexpr float kLargest = 1.844e18f;  // Embree's FLT_LARGE
+    for (int a = 0; a < 3; ++a)
+      if (!(std::fabs(ray.org[a]) <= kLargest && std::fabs(ray.dir[a]) <= kLargest)) return false;
+    return ray.tmin <= ray.tmax;  // false when either is NaN
   }
 
   static RTCRay to_embree(const Ray& ray) {
@@ -151,16 +164,19 @@ class EmbreeCpu final : public Accelerator {
   }
 
   static constexpr std::size_t kPacket = 8;
+  static constexpr Ray kIdleRay{{0, 0, 0}, 0, {0, 0, 1}, 0};
 
-  /// Traces rays[first, first + count) (count <= 8) as one packet; the other slots are invalid.
+  /// Traces rays[first, first + count) (count <= 8) as one packet; the other slots, and rays
+  /// Embree does not accept, are inactive and miss.
   void trace_packet(std::span<const Ray> rays, std::span<Hit> hits, std::size_t first,
                     std::size_t count, Query query, RTCIntersectContext& context) const {
     alignas(32) int valid[kPacket];
     RTCRayHit8 packet;
     RTCRay8& r = packet.ray;
     for (std::size_t k = 0; k < kPacket; ++k) {
-      valid[k] = k < count ? -1 : 0;
-      const Ray& ray = rays[first + (k < count ? k : 0)];
+      valid[k] = k < count && embree_accepts(rays[first + k]) ? -1 : 0;
+      // Inactive slots hold a harmless ray rather than a rejected one's numbers.
+      const Ray& ray = valid[k] ? rays[first + k] : kIdleRay;
       r.org_x[k] = ray.org[0], r.org_y[k] = ray.org[1], r.org_z[k] = ray.org[2];
       r.tnear[k] = ray.tmin;
       r.dir_x[k] = ray.dir[0], r.dir_y[k] = ray.dir[1], r.dir_z[k] = ray.dir[2];
@@ -172,13 +188,13 @@ class EmbreeCpu final : public Accelerator {
     if (query == Query::any) {
       rtcOccluded8(valid, scene_, &context, &r);
       for (std::size_t k = 0; k < count; ++k)
-        hits[first + k] = occlusion(r.tfar[k]);
+        hits[first + k] = valid[k] ? occlusion(r.tfar[k]) : Hit{};
       return;
     }
     rtcIntersect8(valid, scene_, &context, &packet);
     for (std::size_t k = 0; k < count; ++k)
       hits[first + k] =
-          packet.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID
+          !valid[k] || packet.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID
               ? Hit{}
               : Hit{packet.hit.primID[k], r.tfar[k], packet.hit.u[k], packet.hit.v[k]};
   }
