@@ -98,6 +98,7 @@ TEST_F(Cli, BadOptionValuesAreExitTwo) {
   EXPECT_EQ(run("rays builtin:cube --kind shadow -o " + (dir / "x.rays").string()).code, 2);
   EXPECT_EQ(run("bench builtin:cube --structure kd-tree").code, 2);
   EXPECT_EQ(run("render builtin:cube --mode xray -o " + (dir / "x.png").string()).code, 2);
+  EXPECT_EQ(run("render builtin:cube --fov 180 -o " + (dir / "x.png").string()).code, 2);
   EXPECT_EQ(run("frobnicate").code, 2);
   EXPECT_EQ(run("info builtin:nosuchscene").code, 2);
   EXPECT_EQ(run("--help").code, 0);

@@ -109,6 +109,10 @@ TEST_F(RaysTest, RandomRaysStartInsideTheBox) {
 TEST_F(RaysTest, InvalidParametersAreRejected) {
   EXPECT_THROW(primary_rays(Camera{}, 0, 10), Error);
   EXPECT_THROW(primary_rays(Camera{{0, 0, 0}, {0, 0, 0}, {0, 1, 0}, 60}, 4, 4), Error);
+  // A field of view of 0 or 180 degrees, or not a number, made every ray alike or NaN.
+  for (float fov : {0.f, 180.f, -10.f, std::nanf("")})
+    EXPECT_THROW(primary_rays(Camera{{0, 0, 0}, {0, 0, -1}, {0, 1, 0}, fov}, 4, 4), Error) << fov;
+  EXPECT_THROW(primary_rays(Camera{{std::nanf(""), 0, 0}, {0, 0, -1}, {0, 1, 0}, 60}, 4, 4), Error);
   EXPECT_THROW(parse_ray_kind("shadow"), Error);
   EXPECT_THROW(parse_ray_format("pbrt"), Error);
   const Camera camera = scene_views(scene).at(0);

@@ -75,6 +75,13 @@ std::vector<Ray> primary_rays(const Camera& camera, int width, int height) {
   if (width <= 0 || height <= 0 || std::uint64_t(width) * std::uint64_t(height) > (1ull << 31))
     throw Error(ErrorCode::invalid_argument,
                 fmt::format("image size {}x{} is not between 1x1 and 2^31 pixels", width, height));
+  for (int a = 0; a < 3; ++a)
+    if (!std::isfinite(camera.eye[a]) || !std::isfinite(camera.target[a]) ||
+        !std::isfinite(camera.up[a]))
+      throw Error(ErrorCode::invalid_argument, "camera: eye, target and up must be finite numbers");
+  if (!(camera.fov_deg > 0 && camera.fov_deg < 180))
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("camera: field of view {} degrees is not in (0, 180)", camera.fov_deg));
   const Vec3d eye = Vec3d::from(camera.eye);
   const Vec3d forward = normalize(Vec3d::from(camera.target) - eye);
   const Vec3d right = normalize(cross(forward, Vec3d::from(camera.up)));

@@ -22,6 +22,7 @@ struct RenderOptions {
   StructureOptions structure;
   int view = 0, width = 1024, height = 1024, spp = 16;
   float fov = 60;
+  bool fov_given = false;  // --fov also overrides a view's field of view
 };
 
 using Rgb = Vec3<float>;
@@ -80,9 +81,12 @@ std::vector<float> ambient_occlusion(const Scene& scene, const Accelerator& trac
 Camera choose_camera(const Scene& scene, const RenderOptions& o) {
   if (o.eye.empty() != o.target.empty())
     throw Error(ErrorCode::invalid_argument, "--eye and --target go together");
-  if (o.eye.empty()) return pick_view(scene, o.view, o.views_file);
-  return Camera{parse_vec3(o.eye, "--eye"), parse_vec3(o.target, "--target"),
-                parse_vec3(o.up, "--up"), o.fov};
+  Camera camera = o.eye.empty()
+                      ? pick_view(scene, o.view, o.views_file)
+                      : Camera{parse_vec3(o.eye, "--eye"), parse_vec3(o.target, "--target"),
+                               parse_vec3(o.up, "--up"), o.fov};
+  if (o.fov_given) camera.fov_deg = o.fov;
+  return camera;
 }
 
 /// Blue (little work) to red (most work) through green and yellow.
@@ -165,8 +169,10 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("--views", o->views_file, "views.json to take the cameras from");
   cmd->add_option("--eye", o->eye, "Camera position x,y,z (with --target)");
   cmd->add_option("--target", o->target, "Point looked at x,y,z");
-  cmd->add_option("--up", o->up, "Up vector x,y,z")->capture_default_str();
-  cmd->add_option("--fov", o->fov, "Vertical field of view in degrees")->capture_default_str();
+  cmd->add_option("--up", o->up, "Up vector x,y,z (with --eye)")->capture_default_str();
+  auto* fov = cmd->add_option("--fov", o->fov,
+                              "Vertical field of view in degrees, in (0, 180) (default: the "
+                              "view's; 60 with --eye)");
   cmd->add_option("-w,--width", o->width, "Image width")->capture_default_str();
   cmd->add_option("-h,--height", o->height, "Image height")->capture_default_str();
   cmd->add_option("--mode", o->mode, "shaded, normal, primid, ao or heatmap")
@@ -174,7 +180,10 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("--spp", o->spp, "Ambient-occlusion rays per pixel (mode ao)")
       ->capture_default_str();
   add_structure_options(cmd, o->structure);
-  cmd->callback([o] { run_render(*o); });
+  cmd->callback([o, fov] {
+    o->fov_given = fov->count() > 0;
+    run_render(*o);
+  });
 }
 
 }  // namespace irgrid::cli
