@@ -99,6 +99,8 @@ TEST_F(Cli, BadOptionValuesAreExitTwo) {
   EXPECT_EQ(run("bench builtin:cube --structure kd-tree").code, 2);
   EXPECT_EQ(run("render builtin:cube --mode xray -o " + (dir / "x.png").string()).code, 2);
   EXPECT_EQ(run("render builtin:cube --fov 180 -o " + (dir / "x.png").string()).code, 2);
+  EXPECT_EQ(run("bench builtin:cube --compare ,").code, 2);
+  EXPECT_EQ(run("--threads -3 info").code, 2);
   EXPECT_EQ(run("frobnicate").code, 2);
   EXPECT_EQ(run("info builtin:nosuchscene").code, 2);
   EXPECT_EQ(run("--help").code, 0);
@@ -139,6 +141,11 @@ TEST_F(Cli, TraceReadsHagridRaysWithGivenInterval) {
   const auto r = run("trace builtin:cube --rays " + rays + " --format hagrid --tmax 0 -o " + hits);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("(0 hits)"), std::string::npos) << "tmax 0 leaves nothing to hit: " << r.out;
+  // An interval that is empty for every ray is a mistake on the command line.
+  const auto empty =
+      run("trace builtin:cube --rays " + rays + " --format hagrid --tmin 5 --tmax 1 -o " + hits);
+  EXPECT_EQ(empty.code, 2);
+  EXPECT_NE(empty.err.find("--tmin 5 and --tmax 1"), std::string::npos) << empty.err;
 }
 
 TEST_F(Cli, BenchValidatesAndWritesJson) {

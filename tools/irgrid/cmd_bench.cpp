@@ -57,6 +57,9 @@ std::vector<Contender> parse_contenders(const BenchOptions& o) {
       names.insert(names.begin(), default_structure() + "@cuda");
     }
   }
+  if (names.empty() && !o.compare.empty())
+    throw Error(ErrorCode::invalid_argument,
+                "--compare '" + o.compare + "' names no structure (e.g. irregular,embree)");
   if (names.empty())
     names.push_back(o.structure.structure.empty() ? default_structure() : o.structure.structure);
   std::vector<Contender> contenders;

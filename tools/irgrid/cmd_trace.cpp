@@ -34,6 +34,10 @@ void to_file_convention(const Scene& scene, std::span<Hit> hits, bool any_hit) {
 void run_trace(const TraceOptions& o) {
   const RayFormat format = parse_ray_format(o.format);
   const float inf = std::numeric_limits<float>::infinity();
+  if (!(o.tmin.value_or(0.f) <= o.tmax.value_or(inf)))
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("--tmin {} and --tmax {} leave no interval to hit in",
+                            o.tmin.value_or(0.f), o.tmax.value_or(inf)));
   auto rays = read_rays(o.rays_file, format, o.tmin.value_or(0.f), o.tmax.value_or(inf));
   if (format == RayFormat::irgrid && (o.tmin || o.tmax))
     for (Ray& ray : rays)

@@ -26,7 +26,7 @@ int main(int argc, char** argv) {
              thread_cap.emplace(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
          },
          "CPU threads for builds and traces (default: all hardware threads)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::Range(0, 1 << 16).description("0 (all) to 65536"));
   irgrid::cli::add_info_command(app);
   irgrid::cli::add_build_command(app);
   irgrid::cli::add_rays_command(app);
