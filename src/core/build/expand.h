@@ -58,9 +58,9 @@ void expand_axis(Exec& exec, const GridArrays<Exec>& grid, Cell* out, std::uint8
 }  // namespace expand_detail
 
 /// Grows the exit boxes of all cells of `grid` in `passes` passes (x, y, z each; 0 or less:
-/// nothing), in place of grid.cells. With `partial`, a cell may also grow part-way into
-/// neighbours that hold triangles it does not list (not in the paper), in steps of
-/// growth_quantum voxels (a power of two).
+/// nothing; fewer once no face may grow), in place of grid.cells. With `partial`, a cell may also
+/// grow part-way into neighbours that hold triangles it does not list (not in the paper), in steps
+/// of growth_quantum voxels (a power of two).
 ///
 /// Requires a valid grid: cells tile the virtual grid (their boxes may already be expanded exit
 /// boxes), every list sorted ascending and unique, the voxel map answering each voxel's owner,
@@ -86,6 +86,12 @@ void expand_cells(Exec& exec, GridArrays<Exec>& grid, int passes, bool partial,
     grow_along(std::integral_constant<int, 0>());
     grow_along(std::integral_constant<int, 1>());
     grow_along(std::integral_constant<int, 2>());
+    // No face left that may grow: later passes would copy every box unchanged (a huge
+    // --expansion-passes once ran for minutes doing only that).
+    const std::uint8_t any_face =
+        exec.reduce("expand any face", d_can_grow, count, std::uint8_t(0),
+                    [] IRGRID_HD(std::uint8_t a, std::uint8_t b) { return std::uint8_t(a | b); });
+    if (any_face == 0) break;
   }
 }
 
