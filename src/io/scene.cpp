@@ -31,13 +31,19 @@ Box3f Scene::bounds() const {
   return box;
 }
 
+namespace {
+
+bool is_finite(const Vec3f& p) {
+  return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
+}
+
+}  // namespace
+
 void drop_invalid_triangles(Scene& scene) {
   const auto vertex_count = scene.vertices.size();
   std::vector<bool> finite(vertex_count);
-  for (std::size_t i = 0; i < vertex_count; ++i) {
-    const auto& p = scene.vertices[i];
-    finite[i] = std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
-  }
+  for (std::size_t i = 0; i < vertex_count; ++i)
+    finite[i] = is_finite(scene.vertices[i]);
   scene.input_ids.clear();
   std::size_t kept = 0;
   for (std::size_t i = 0; i < scene.triangles.size(); ++i) {
@@ -75,7 +81,7 @@ void check_scene(const Scene& scene) {
                                 "vertices (drop_invalid_triangles removes such triangles)",
                                 scene.name, i, index, vertex_count));
       const auto& p = scene.vertices[index];
-      if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+      if (!is_finite(p))
         throw Error(ErrorCode::invalid_argument,
                     fmt::format("scene '{}': triangle {} uses vertex {} = ({}, {}, {}), which is "
                                 "not finite (drop_invalid_triangles removes such triangles)",
