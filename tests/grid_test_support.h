@@ -113,6 +113,72 @@ inline std::vector<std::array<Vec3f, 3>> sliver_beside_square_triangles() {
           {{{0, 0, 0}, {1e5f, 0, 0}, {1e5f, 1, 1}}}};
 }
 
+/// Rays from within 0.71 units of the plane of sliver_beside_square_triangles()'s sliver
+/// (y = z), anywhere along its length, in random directions. Its far vertices then lie far along
+/// the ray on both of its sides, where the float test's t cancels (core/watertight.h,
+/// t_needs_double): before its redo in double, 5% of such rays got a wrong hit or miss.
+inline std::vector<Ray> rays_near_the_slivers_plane(int count, std::uint64_t seed) {
+  Pcg32 rng;
+  rng.seed(seed);
+  std::vector<Ray> rays(count);
+  for (Ray& ray : rays) {
+    const float x = 1e5f * rng.next_float(), off_plane = 2 * rng.next_float() - 1;
+    const float y = rng.next_float() + 0.5f * off_plane;
+    ray.org[0] = x, ray.org[1] = y, ray.org[2] = y - off_plane;
+    for (float& d : ray.dir)
+      d = 2 * rng.next_float() - 1;
+    ray.tmin = 0;
+    ray.tmax = std::numeric_limits<float>::infinity();
+  }
+  return rays;
+}
+
+/// Distance from `point` to the nearest point of the edges of triangle `prim`.
+inline double distance_to_triangle_edges(const Scene& scene, std::uint32_t prim,
+                                         const Vec3d& point) {
+  double nearest = std::numeric_limits<double>::infinity();
+  for (int e = 0; e < 3; ++e) {
+    const Vec3d a = Vec3d::from(scene.vertices[scene.triangles[prim][e]]);
+    const Vec3d ab = Vec3d::from(scene.vertices[scene.triangles[prim][(e + 1) % 3]]) - a;
+    const double s = std::clamp(dot(point - a, ab) / dot(ab, ab), 0.0, 1.0);
+    nearest = std::min(nearest, length(point - (a + ab * s)));
+  }
+  return nearest;
+}
+
+/// Expects closest hits equal to the double reference's up to a relative 1e-3 in t, except
+/// where float and double may legitimately differ: a hit within `margin` of its triangle's
+/// edges (which a float hit off the plane is not). Stricter than validate_hits, whose tolerance
+/// is relative to the scene's size (a unit on the sliver's scene, as wide as the sliver).
+inline void expect_hits_match_reference(const Scene& scene, const std::vector<Ray>& rays,
+                                        const std::vector<Hit>& hits,
+                                        const std::vector<Hit>& reference, double margin,
+                                        const std::string& what) {
+  const auto fragile = [&](const Ray& ray, const Hit& hit) {
+    return hit.hit() && distance_to_triangle_edges(
+                            scene, hit.prim,
+                            Vec3d::from(ray.org) + Vec3d::from(ray.dir) * double(hit.t)) <= margin;
+  };
+  const auto distance = [](const Hit& hit) {
+    return hit.hit() ? double(hit.t) : std::numeric_limits<double>::infinity();
+  };
+  int wrong = 0;
+  for (std::size_t i = 0; i < rays.size(); ++i) {
+    const Hit &got = hits[i], &want = reference[i];
+    const double slack = 1e-3 * std::max(1.0, std::abs(distance(want)));
+    bool ok;
+    if (got.prim == want.prim)
+      ok = !got.hit() || std::abs(distance(got) - distance(want)) <= slack;
+    else  // wrong when either side has a robust hit clearly before the other's answer
+      ok = !(!fragile(rays[i], got) && distance(got) < distance(want) - slack) &&
+           !(!fragile(rays[i], want) && distance(want) < distance(got) - slack);
+    if (!ok && ++wrong <= 3)
+      ADD_FAILURE() << what << ": ray " << i << " hit " << got.prim << " at t=" << got.t
+                    << ", reference " << want.prim << " at t=" << want.t;
+  }
+  EXPECT_EQ(wrong, 0) << what << " (of " << rays.size() << " rays)";
+}
+
 /// The voxel map answers every cell's 8 corner voxels with that cell, and 20000 random voxels
 /// (drawn with `seed`) with a cell whose box holds them. For grids whose cells hold their entry
 /// boxes (before expansion).

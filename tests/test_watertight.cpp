@@ -8,6 +8,7 @@
 
 #include "core/random.h"
 #include "core/watertight.h"
+#include "grid_test_support.h"
 #include "irgrid/accelerator.h"
 #include "irgrid/scene.h"
 
@@ -182,6 +183,68 @@ TEST(Watertight, FloatAgreesWithDoubleReferenceOnARandomSoup) {
     EXPECT_NEAR(hits[i].v, reference[i].v, 1e-3f);
   }
   EXPECT_GT(hit_count, rays.size() / 4) << "the test must exercise hits";
+}
+
+TEST(Watertight, FloatTNearALongSliversPlaneAgreesWithDouble) {
+  // Before t_needs_double, 5% of these rays got a wrong hit or miss: a hit at t = 10.4 on a plane
+  // 0.4 behind the origin, or a miss of one 0.1 ahead.
+  const Scene scene = testing::scene_from_triangles(testing::sliver_beside_square_triangles());
+  const auto rays = testing::rays_near_the_slivers_plane(20000, 3);
+  std::vector<Hit> hits(rays.size()), reference(rays.size());
+  make_accelerator(scene, "brute")->trace(rays, hits, Query::closest);
+  trace_reference_double(scene, rays, reference, Query::closest);
+  const auto hit_count =
+      std::count_if(reference.begin(), reference.end(), [](const Hit& hit) { return hit.hit(); });
+  EXPECT_GT(hit_count, 2000) << "the test must exercise hits";
+  testing::expect_hits_match_reference(scene, rays, hits, reference, 0.05, "brute force");
+}
+
+TEST(Watertight, NeedsDoubleOnlyWhereTheFloatTIsInDoubt) {
+  // A unit triangle 5 units ahead: t is known to a few ulps, so no redo, whatever tmin and
+  // tmax, unless one of them lies within that error of t.
+  const auto r = make_watertight_ray<float>({{0.2f, 0.2f, -5}, 0, {0, 0, 1}, kInf});
+  const Vec3<float> p[3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  float x[3], y[3], z[3], depth[3];
+  for (int j = 0; j < 3; ++j)
+    shear_vertex(r, p[j], x[j], y[j], z[j], depth[j]);
+  const float u = difference_of_products(x[2], y[1], y[2], x[1]);
+  const float v = difference_of_products(x[0], y[2], y[0], x[2]);
+  const float w = difference_of_products(x[1], y[0], y[1], x[0]);
+  const float det = u + v + w, t = (u * z[0] + v * z[1] + w * z[2]) / det;
+  ASSERT_FLOAT_EQ(t, 5.f);
+  const auto needs = [&](float tmin, float tmax) {
+    return t_needs_double<ScalarLanes>(x, y, z, depth, det, 1 / det, t, tmin, tmax);
+  };
+  EXPECT_FALSE(needs(0, kInf));
+  EXPECT_FALSE(needs(5.1f, kInf)) << "surely before tmin";
+  EXPECT_FALSE(needs(0, 4.9f)) << "surely after tmax";
+  EXPECT_TRUE(needs(std::nextafter(t, 6.f), kInf)) << "tmin within the error of t";
+  EXPECT_TRUE(needs(0, std::nextafter(t, 4.f))) << "tmax within the error of t";
+  // Three rays near the long sliver's plane that the float test got wrong before its redo: a
+  // hit at t = 43.05 instead of 0.88, a hit at 15.68 on a plane behind the origin, and a miss
+  // of a plane 0.096 ahead.
+  const Vec3<float> sliver[3] = {{0, 0, 0}, {1e5f, 0, 0}, {1e5f, 1, 1}};
+  const std::vector<Ray> rays = {{{64047.2773f, -0.403385103f, 0.461094677f},
+                                  0,
+                                  {-0.68335402f, 0.589982867f, -0.390385389f},
+                                  kInf},
+                                 {{63622.0469f, 0.242202282f, -0.00944197178f},
+                                  0,
+                                  {-0.960756898f, 0.398730516f, -0.553178191f},
+                                  kInf},
+                                 {{96614.7266f, 0.590633214f, 0.611440599f},
+                                  0,
+                                  {0.968763828f, 0.95939362f, 0.741668582f},
+                                  kInf}};
+  const bool expected[3] = {true, false, true};
+  const double expected_t[3] = {0.881790852, 0, 0.0955672595};
+  for (int i = 0; i < 3; ++i) {
+    TriangleHit<float> hit{};
+    const bool hits = intersect_watertight(make_watertight_ray<float>(rays[i]), sliver[0],
+                                           sliver[1], sliver[2], kInf, hit);
+    ASSERT_EQ(hits, expected[i]) << "ray " << i;
+    if (hits) EXPECT_NEAR(hit.t, expected_t[i], 1e-5) << "ray " << i;
+  }
 }
 
 }  // namespace

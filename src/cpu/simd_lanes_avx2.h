@@ -40,6 +40,7 @@ struct Avx2Lanes {
   static F div(F a, F b) { return _mm256_div_ps(a, b); }
   static F min(F a, F b) { return _mm256_min_ps(a, b); }
   static F max(F a, F b) { return _mm256_max_ps(a, b); }
+  static F abs(F a) { return _mm256_andnot_ps(_mm256_set1_ps(-0.f), a); }
   static I add(I a, I b) { return _mm256_add_epi32(a, b); }
   static I sub(I a, I b) { return _mm256_sub_epi32(a, b); }
   static I mul(I a, I b) { return _mm256_mullo_epi32(a, b); }
@@ -65,6 +66,8 @@ struct Avx2Lanes {
   static M compare(F a, F b) {
     return _mm256_castps_si256(_mm256_cmp_ps(a, b, kPredicate));
   }
+  static M less(F a, F b) { return compare<_CMP_LT_OQ>(a, b); }
+  static M less_equal(F a, F b) { return compare<_CMP_LE_OQ>(a, b); }
   static M equal(I a, I b) { return _mm256_cmpeq_epi32(a, b); }
   static M greater(I a, I b) { return _mm256_cmpgt_epi32(a, b); }
   /// The lanes of an as_int value: those that hold -1.

@@ -41,6 +41,7 @@ struct Avx512Lanes {
   static F div(F a, F b) { return _mm512_div_ps(a, b); }
   static F min(F a, F b) { return _mm512_min_ps(a, b); }
   static F max(F a, F b) { return _mm512_max_ps(a, b); }
+  static F abs(F a) { return _mm512_abs_ps(a); }
   static I add(I a, I b) { return _mm512_add_epi32(a, b); }
   static I sub(I a, I b) { return _mm512_sub_epi32(a, b); }
   static I mul(I a, I b) { return _mm512_mullo_epi32(a, b); }
@@ -66,6 +67,8 @@ struct Avx512Lanes {
   static M compare(F a, F b) {
     return _mm512_cmp_ps_mask(a, b, kPredicate);
   }
+  static M less(F a, F b) { return compare<_CMP_LT_OQ>(a, b); }
+  static M less_equal(F a, F b) { return compare<_CMP_LE_OQ>(a, b); }
   static M equal(I a, I b) { return _mm512_cmpeq_epi32_mask(a, b); }
   static M greater(I a, I b) { return _mm512_cmpgt_epi32_mask(a, b); }
   /// The lanes of an as_int value: those that hold -1.

@@ -299,13 +299,14 @@ struct LaneWalk {
   struct alignas(64) BatchHits {
     float t[L], u[L], v[L];  // where `hits` has the bit: intersect_watertight's hit
     std::uint32_t hits;      // intersect_watertight returns true
-    std::uint32_t scalar;    // left to the scalar test (an edge function is zero, or not a number)
+    std::uint32_t scalar;    // left to the scalar test (an edge function is zero or not a number,
+                             // or t may have cancelled)
   };
 
   /// intersect_watertight, lane-wise, for tests first + p (p < count <= L, first a multiple of
   /// it) of `tests`, against the rays of their lanes, with the same operations in the same
-  /// order. Tests whose edge functions are not all nonzero numbers are left to the scalar test
-  /// (its double-precision redo of zero edge functions).
+  /// order. Tests whose edge functions are not all nonzero numbers, or whose t may have
+  /// cancelled (t_needs_double), are left to the scalar test and its redos in double.
   static void test_triangles(const GridView& grid, const Lanes& s, const TestList& tests, int first,
                              int count, BatchHits& out) {
     const M slots = V::lanes((1u << count) - 1);
@@ -319,15 +320,15 @@ struct LaneWalk {
     const I kx = ray_int(s.axis[0]), ky = ray_int(s.axis[1]), kz = ray_int(s.axis[2]);
     const F ox = ray_float(s.org_k[0]), oy = ray_float(s.org_k[1]), oz = ray_float(s.org_k[2]);
     const F sx = ray_float(s.shear[0]), sy = ray_float(s.shear[1]), sz = ray_float(s.shear[2]);
-    F x[3], y[3], z[3];
+    F x[3], y[3], z[3], depth[3];
     for (int j = 0; j < 3; ++j) {  // shear_vertex for p0, p1, p2
       const I vertex = V::add(base, V::splat(3 * j));
       const F px = V::gather(coords, V::add(vertex, kx), slots);
       const F py = V::gather(coords, V::add(vertex, ky), slots);
-      const F pz = V::sub(V::gather(coords, V::add(vertex, kz), slots), oz);
-      x[j] = V::sub(V::sub(px, ox), V::mul(sx, pz));
-      y[j] = V::sub(V::sub(py, oy), V::mul(sy, pz));
-      z[j] = V::mul(sz, pz);
+      depth[j] = V::sub(V::gather(coords, V::add(vertex, kz), slots), oz);
+      x[j] = V::sub(V::sub(px, ox), V::mul(sx, depth[j]));
+      y[j] = V::sub(V::sub(py, oy), V::mul(sy, depth[j]));
+      z[j] = V::mul(sz, depth[j]);
     }
     // a = p0, b = p1, c = p2: u = c_x b_y - c_y b_x, v = a_x c_y - a_y c_x, w = b_x a_y - b_y a_x.
     const F u = V::sub(V::mul(x[2], y[1]), V::mul(y[2], x[1]));
@@ -346,21 +347,43 @@ struct LaneWalk {
                   compare<_CMP_EQ_OQ>(w, zero));
     // Mixed nonzero signs: a miss whatever the double redo would make of a zero.
     const M missed = V::both(V::both(negative, positive), numbers);
-    const M scalar = V::but_not(missed, V::either(some_zero, V::but_not(numbers, V::all_lanes())));
+    M scalar = V::but_not(missed, V::either(some_zero, V::but_not(numbers, V::all_lanes())));
     const F det = V::add(V::add(u, v), w);
     const F t_scaled = V::add(V::add(V::mul(u, z[0]), V::mul(v, z[1])), V::mul(w, z[2]));
     const F inv_det = V::div(V::splat(1.f), det);
     const F t = V::mul(t_scaled, inv_det);
-    const M in_range = V::both(
-        V::both(compare<_CMP_GE_OQ>(t, ray_float(s.tmin)),
-                compare<_CMP_LE_OQ>(t, ray_float(s.tmax))),
-        V::both(compare<_CMP_LT_OQ>(t, V::splat(INFINITY)), compare<_CMP_NEQ_UQ>(det, zero)));
+    const F tmin = ray_float(s.tmin), tmax = ray_float(s.tmax);
+    const M nonzero_det = compare<_CMP_NEQ_UQ>(det, zero);
+    // Tests whose t may have cancelled go to the scalar test too (its redo of t in double).
+    const M inside =
+        V::both(V::both(slots, nonzero_det), V::but_not(V::either(missed, scalar), V::all_lanes()));
+    if (V::any(inside))
+      scalar = V::either(
+          scalar, V::both(inside, t_needs_double<V>(x, y, z, depth, det, inv_det, t, tmin, tmax)));
+    const M in_range = V::both(V::both(compare<_CMP_GE_OQ>(t, tmin), compare<_CMP_LE_OQ>(t, tmax)),
+                               V::both(compare<_CMP_LT_OQ>(t, V::splat(INFINITY)), nonzero_det));
     const M hit = V::but_not(V::either(missed, scalar), in_range);
     V::store(out.t, t);
     V::store(out.u, V::mul(v, inv_det));
     V::store(out.v, V::mul(w, inv_det));
     out.hits = V::bits(V::both(slots, hit));
     out.scalar = V::bits(V::both(slots, scalar));
+  }
+
+  /// intersect_watertight for lane l's ray, for the tests test_triangles leaves to it (with its
+  /// redos in double).
+  static bool scalar_test(const TriangleVertices& tri, const Lanes& s, int l,
+                          TriangleHit<float>& hit) {
+    const WatertightRay<float> ray{{s.org_k[0][l], s.org_k[1][l], s.org_k[2][l]},
+                                   s.axis[0][l],
+                                   s.axis[1][l],
+                                   s.axis[2][l],
+                                   s.shear[0][l],
+                                   s.shear[1][l],
+                                   s.shear[2][l],
+                                   s.tmin[l],
+                                   s.tmax[l]};
+    return intersect_watertight(ray, tri.p0, tri.p1, tri.p2, float(INFINITY), hit);
   }
 
   /// step_past_cell, lane-wise, for lanes whose walk goes on; returns the lanes whose walk ends
@@ -555,19 +578,7 @@ struct LaneWalk {
           if (kQuery == Query::any && (group.hit_lanes >> l & 1)) continue;
           const std::uint32_t id = list.prim[first + p];
           TriangleHit<float> hit{batch.t[p], batch.u[p], batch.v[p]};
-          if (batch.scalar >> p & 1) {
-            const TriangleVertices& tri = grid.triangles[id];
-            const WatertightRay<float> ray{{s.org_k[0][l], s.org_k[1][l], s.org_k[2][l]},
-                                           s.axis[0][l],
-                                           s.axis[1][l],
-                                           s.axis[2][l],
-                                           s.shear[0][l],
-                                           s.shear[1][l],
-                                           s.shear[2][l],
-                                           s.tmin[l],
-                                           s.tmax[l]};
-            if (!intersect_watertight(ray, tri.p0, tri.p1, tri.p2, float(INFINITY), hit)) continue;
-          }
+          if ((batch.scalar >> p & 1) && !scalar_test(grid.triangles[id], s, l, hit)) continue;
           const float best_t = s.best_t[l];
           if (hit.t > best_t || (hit.t == best_t && id > std::uint32_t(s.best_prim[l]))) continue;
           s.best_t[l] = hit.t;
