@@ -130,14 +130,14 @@ struct ScalarLanes {
 /// so a common depth cancels. Written once for one ray (ScalarLanes) and for the SIMD walk's
 /// lanes, with the same operations in the same order, so both flag the same tests.
 #if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic push  // see cpu/simd_walk_avx512.cpp on -Wpsabi
+#pragma GCC diagnostic push  // see cpu/simd_walk_avx2.cpp on -Wpsabi
 #pragma GCC diagnostic ignored "-Wpsabi"
 #endif
 template <typename A>
 IRGRID_HD IRGRID_ALWAYS_INLINE typename A::M t_needs_double(
     const typename A::F (&x)[3], const typename A::F (&y)[3], const typename A::F (&z)[3],
-    const typename A::F (&depth)[3], typename A::F det, typename A::F inv_det, typename A::F t,
-    typename A::F tmin, typename A::F tmax) {
+    const typename A::F (&depth)[3], const typename A::F& det, const typename A::F& inv_det,
+    const typename A::F& t, const typename A::F& tmin, const typename A::F& tmax) {
   using F = typename A::F;
   // No lambdas: they would not inherit the SIMD walk's target options.
   const F max_xy =

@@ -17,8 +17,9 @@
 #pragma GCC push_options
 #pragma GCC target("avx2")
 // core/watertight.h's t_needs_double is baseline code (included above) that the walk
-// instantiates with vectors and always inlines; GCC still warns, where the template is
-// instantiated at the end of this file, that an out-of-line copy would return vectors differently.
+// instantiates with AVX2 vectors and always inlines; GCC still warns, where the template is
+// instantiated at the end of this file, that an out-of-line copy would return its lane mask (a
+// vector here, a mask register with AVX-512) differently.
 #pragma GCC diagnostic ignored "-Wpsabi"
 
 #include "cpu/simd_lanes_avx2.h"

@@ -23,10 +23,6 @@
 
 #pragma GCC push_options
 #pragma GCC target("avx2,avx512f")
-// core/watertight.h's t_needs_double is baseline code (included above) that the walk
-// instantiates with vectors and always inlines; GCC still warns, where the template is
-// instantiated at the end of this file, that an out-of-line copy would return vectors differently.
-#pragma GCC diagnostic ignored "-Wpsabi"
 
 #include "cpu/simd_lanes_avx512.h"
 #include "cpu/simd_walk_lanes.h"
