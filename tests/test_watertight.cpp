@@ -204,12 +204,9 @@ TEST(Watertight, NeedsDoubleOnlyWhereTheFloatTIsInDoubt) {
   // tmax, unless one of them lies within that error of t.
   const auto r = make_watertight_ray<float>({{0.2f, 0.2f, -5}, 0, {0, 0, 1}, kInf});
   const Vec3<float> p[3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
-  float x[3], y[3], z[3], depth[3];
-  for (int j = 0; j < 3; ++j)
-    shear_vertex(r, p[j], x[j], y[j], z[j], depth[j]);
-  const float u = difference_of_products(x[2], y[1], y[2], x[1]);
-  const float v = difference_of_products(x[0], y[2], y[0], x[2]);
-  const float w = difference_of_products(x[1], y[0], y[1], x[0]);
+  float x[3], y[3], z[3], depth[3], u, v, w;
+  shear_triangle(r, p[0], p[1], p[2], x, y, z, depth);
+  edge_functions(x, y, u, v, w);
   const float det = u + v + w, t = (u * z[0] + v * z[1] + w * z[2]) / det;
   ASSERT_FLOAT_EQ(t, 5.f);
   const auto needs = [&](float tmin, float tmax) {

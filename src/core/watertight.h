@@ -91,6 +91,25 @@ IRGRID_HD inline void shear_vertex(const WatertightRay<T>& r, const Vec3<T>& p, 
   z = r.sz * depth;
 }
 
+/// shear_vertex for the three vertices, into arrays indexed by vertex.
+template <typename T>
+IRGRID_HD inline void shear_triangle(const WatertightRay<T>& r, const Vec3<T>& p0,
+                                     const Vec3<T>& p1, const Vec3<T>& p2, T (&x)[3], T (&y)[3],
+                                     T (&z)[3], T (&depth)[3]) {
+  shear_vertex(r, p0, x[0], y[0], z[0], depth[0]);
+  shear_vertex(r, p1, x[1], y[1], z[1], depth[1]);
+  shear_vertex(r, p2, x[2], y[2], z[2], depth[2]);
+}
+
+/// The paper's edge functions of the sheared vertices, each from the two vertices of its edge
+/// alone: u = x2 y1 - y2 x1 (the edge p1 p2, opposite p0), v and w likewise.
+template <typename T>
+IRGRID_HD inline void edge_functions(const T (&x)[3], const T (&y)[3], T& u, T& v, T& w) {
+  u = difference_of_products(x[2], y[1], y[2], x[1]);
+  v = difference_of_products(x[0], y[2], y[0], x[2]);
+  w = difference_of_products(x[1], y[0], y[1], x[0]);
+}
+
 /// Float operations for one ray under the names of the SIMD walk's lane operations
 /// (cpu/simd_lanes_avx512.h, cpu/simd_lanes_avx2.h), so a formula written once serves both.
 struct ScalarLanes {
@@ -194,13 +213,10 @@ IRGRID_HD inline bool t_in_double(const WatertightRay<float>& r, const Vec3<floa
                                  double(r.sz),
                                  double(r.tmin),
                                  double(r.tmax)};
-  double x[3], y[3], z[3], depth;
-  shear_vertex(rd, Vec3<double>::from(p0), x[0], y[0], z[0], depth);
-  shear_vertex(rd, Vec3<double>::from(p1), x[1], y[1], z[1], depth);
-  shear_vertex(rd, Vec3<double>::from(p2), x[2], y[2], z[2], depth);
-  const double u = difference_of_products(x[2], y[1], y[2], x[1]);
-  const double v = difference_of_products(x[0], y[2], y[0], x[2]);
-  const double w = difference_of_products(x[1], y[0], y[1], x[0]);
+  double x[3], y[3], z[3], depth[3], u, v, w;
+  shear_triangle(rd, Vec3<double>::from(p0), Vec3<double>::from(p1), Vec3<double>::from(p2), x, y,
+                 z, depth);
+  edge_functions(x, y, u, v, w);
   const double det = u + v + w;
   if (det == 0) return false;
   t = (u * z[0] + v * z[1] + w * z[2]) / det;
@@ -229,13 +245,9 @@ IRGRID_HD IRGRID_ALWAYS_INLINE bool intersect_watertight(const WatertightRay<T>&
                                                          const Vec3<T>& p0, const Vec3<T>& p1,
                                                          const Vec3<T>& p2, T t_limit,
                                                          TriangleHit<T>& hit) {
-  T x[3], y[3], z[3], depth[3];
-  shear_vertex(r, p0, x[0], y[0], z[0], depth[0]);
-  shear_vertex(r, p1, x[1], y[1], z[1], depth[1]);
-  shear_vertex(r, p2, x[2], y[2], z[2], depth[2]);
-  T u = difference_of_products(x[2], y[1], y[2], x[1]);
-  T v = difference_of_products(x[0], y[2], y[0], x[2]);
-  T w = difference_of_products(x[1], y[0], y[1], x[0]);
+  T x[3], y[3], z[3], depth[3], u, v, w;
+  shear_triangle(r, p0, p1, p2, x, y, z, depth);
+  edge_functions(x, y, u, v, w);
   // Rounding is monotonic, so a float edge function has the exact sign of the double one or is
   // 0: mixed nonzero signs are a miss whatever the double test would make of a zero.
   if (mixed_signs(u, v, w)) return false;
