@@ -7,6 +7,9 @@
 
 #include <algorithm>
 #include <cstring>
+#include <limits>
+#include <map>
+#include <string>
 #include <utility>
 
 #include "core/build/compress_cells.h"
@@ -272,6 +275,36 @@ TEST(GridLimits, ClearyResolutionIsTheFloorOfExtentOverSide) {
   }
 }
 
+TEST(GridLimits, ClearyResolutionOfAnInfiniteExtentIsOverTheLimitAtOnce) {
+  // Such an extent once made the guess NaN and the search count up to 2^40, one at a time.
+  const float inf = std::numeric_limits<float>::infinity();
+  double dims[3];
+  cleary_resolution(Vec3<float>{inf, 1.f, 1.f}, 0.12, 1000, 0.f, dims);
+  EXPECT_EQ(dims[0], 0x1p40);
+  cleary_resolution(Vec3<float>{3e38f, 3e38f, 3e38f}, 0.12, 1000, 0.f, dims);
+  EXPECT_GT(dims[0], 1.0) << "the widest finite extents still get a resolution";
+}
+
+TEST(GridLimits, AScenePastTheFloatRangeIsAnErrorNotAHang) {
+  // Its triangles span -1.8e38 to 1.8e38: their box's extent is infinite in float.
+  const Scene scene = testing::scene_from_triangles(
+      {{Vec3f{-1.8e38f, -1.8e38f, 0}, Vec3f{1.8e38f, -1.8e38f, 0}, Vec3f{0, 1.8e38f, 0}},
+       {Vec3f{0, 0, 1}, Vec3f{1, 0, 1}, Vec3f{0, 1, 1}}});
+  for (const BuildConfig::Shape shape :
+       {BuildConfig::Shape::irregular, BuildConfig::Shape::uniform}) {
+    BuildConfig config;
+    config.shape = shape;
+    try {
+      build_test_grid(scene, config);
+      ADD_FAILURE() << "no error";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.code(), ErrorCode::limit_exceeded);
+      EXPECT_NE(std::string(e.what()).find("-1.8e+38 to 1.8e+38 along x"), std::string::npos)
+          << e.what();
+    }
+  }
+}
+
 std::uint32_t most_references_per_cell(const GridArrays<CpuExecutor>& grid) {
   std::uint32_t most = 0;
   for (const Cell& c : grid.cells)
@@ -371,6 +404,25 @@ TEST(GridLimits, OctreesThatOutgrowTheMemoryStopWithAnError) {
   // soon as the build would need more than the machine has, built either way.
   expect_octrees_stop_for_memory<TinyMemoryExecutor>();
   expect_octrees_stop_for_memory<TinyMemoryLevelByLevelExecutor>();
+}
+
+TEST(GridLimits, ATopGridThatOutgrowsTheMemoryStopsBeforeItIsAllocated) {
+  // 2^20 top cells of about 32 bytes each exceed the 1 MiB machine before any octree is built.
+  const Scene scene = load_scene("builtin:cube");
+  TinyMemoryExecutor exec;
+  GridArrays<TinyMemoryExecutor> grid;
+  gather_triangles(scene, grid.triangles);
+  BuildConfig config;
+  config.lambda1 = float(1 << 20) / float(grid.triangles.size());
+  std::map<std::string, double> phases;
+  try {
+    build_grid(exec, grid, config, phases);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ErrorCode::out_of_memory);
+    EXPECT_NE(std::string(e.what()).find("lower lambda1"), std::string::npos) << e.what();
+    EXPECT_EQ(phases.count("octree levels"), 0u) << "stopped before the octrees";
+  }
 }
 
 TEST(GridLimits, InvalidParametersNameTheValue) {

@@ -14,10 +14,7 @@
 #include <utility>
 #include <vector>
 
-#if defined(__linux__)
-#include <unistd.h>
-#endif
-
+#include "cpu/host_memory.h"
 #include "cpu/memory_meter.h"
 #include "cpu/radix_sort.h"
 
@@ -43,16 +40,10 @@ class CpuExecutor {
   /// buffers (core/build/octree_depth_first.h); the result equals the level-by-level build's.
   static constexpr bool kDepthFirstOctrees = true;
 
-  /// Bytes of memory the machine has (0 when unknown): the octree builds stop with an error
-  /// before the build would outgrow it (check_octree_memory), instead of being killed by the
-  /// system.
-  static std::uint64_t memory_budget() {
-#if defined(__linux__)
-    const long pages = sysconf(_SC_PHYS_PAGES), page_size = sysconf(_SC_PAGE_SIZE);
-    if (pages > 0 && page_size > 0) return std::uint64_t(pages) * std::uint64_t(page_size);
-#endif
-    return 0;
-  }
+  /// Bytes of host memory the build may still take (0 when unknown): the build stops with an
+  /// error naming its parameters before it would outgrow them (check_memory_budget), instead of
+  /// being killed by the system or its container.
+  static std::uint64_t memory_budget() { return host_memory_available(); }
 
   /// Memory the primitives work on; host vectors here, device buffers on the CUDA executor.
   /// Algorithm code reaches elements only through the executor's calls or, inside a
@@ -166,14 +157,10 @@ class CpuExecutor {
 
   /// Accumulated wall time in milliseconds per phase name, since construction or the last
   /// reset_profile().
-  const std::map<std::string, double>& profile_ms() const {
-    return profile_ms_;
-  }
+  const std::map<std::string, double>& profile_ms() const { return profile_ms_; }
 
   /// Clears the accumulated phase times.
-  void reset_profile() {
-    profile_ms_.clear();
-  }
+  void reset_profile() { profile_ms_.clear(); }
 
  private:
   /// Below this many elements a sequential scan beats spawning tasks.

@@ -30,6 +30,24 @@ Scene load_scene_reporting(const std::string& spec) {
   return scene;
 }
 
+namespace {
+
+/// Checks a grid option while parsing, so a bad value is reported before a large scene loads:
+/// a finite number with accepts(value) true, else the error `rule`.
+template <typename Accepts>
+CLI::Validator finite_number(const char* rule, Accepts accepts) {
+  return CLI::Validator(
+      [rule, accepts](std::string& text) -> std::string {
+        double value = 0;
+        if (!CLI::detail::lexical_cast(text, value) || !std::isfinite(value) || !accepts(value))
+          return fmt::format("{} is not {}", text, rule);
+        return {};
+      },
+      "");
+}
+
+}  // namespace
+
 void add_structure_options(CLI::App* command, StructureOptions& options) {
   command->add_option("--structure", options.structure,
                       "irregular (default), embree, embree-packets, two-level, uniform or brute");
@@ -40,9 +58,11 @@ void add_structure_options(CLI::App* command, StructureOptions& options) {
   BuildConfig& grid = options.grid;
   command->add_option("--lambda1", grid.lambda1, "Top-level density")
       ->capture_default_str()
+      ->check(finite_number("a positive number", [](double v) { return v > 0; }))
       ->group("Grid");
   command->add_option("--lambda2", grid.lambda2, "Second-level (octree) density")
       ->capture_default_str()
+      ->check(finite_number("a number >= 0", [](double v) { return v >= 0; }))
       ->group("Grid");
   command
       ->add_option("--split-refs", grid.split_refs,
@@ -53,20 +73,24 @@ void add_structure_options(CLI::App* command, StructureOptions& options) {
       ->add_option("--alpha", grid.alpha,
                    "Merging stops when a sweep keeps alpha x the cells (<= 0: off)")
       ->capture_default_str()
+      ->check(finite_number("a finite number", [](double) { return true; }))
       ->group("Grid");
   command
       ->add_option("--cost-ratio", grid.cost_ratio, "Traversal step cost in triangle tests (SAH)")
       ->capture_default_str()
+      ->check(finite_number("a number >= 0", [](double v) { return v >= 0; }))
       ->group("Grid");
   command
       ->add_option("--empty-aspect", grid.empty_aspect,
                    "Largest aspect ratio of merged empty cells (0: no bound)")
       ->capture_default_str()
+      ->check(finite_number("0 or a number >= 1", [](double v) { return v == 0 || v >= 1; }))
       ->group("Grid");
   command
       ->add_option("--expansion-passes", grid.expansion_passes,
                    "Exit-box expansion passes (0: off)")
       ->capture_default_str()
+      ->check(finite_number("a number >= 0", [](double v) { return v >= 0; }))
       ->group("Grid");
   command
       ->add_flag("--partial-expansion,!--no-partial-expansion", grid.partial_expansion,

@@ -20,6 +20,7 @@
 #include "core/build/octree_levels.h"
 #include "core/build/top_grid.h"
 #include "core/build/top_level_refs.h"
+#include "core/number_text.h"
 #include "irgrid/accelerator.h"
 #include "irgrid/build_config.h"
 
@@ -101,7 +102,7 @@ std::int32_t build_initial_grid(Exec& exec, GridArrays<Exec>& grid, const BuildC
                                 PhaseClock<Exec>& clock) {
   if (!(config.lambda2 >= 0) || !std::isfinite(config.lambda2))
     throw Error(ErrorCode::invalid_argument,
-                "lambda2 = " + std::to_string(config.lambda2) + " must be a number >= 0");
+                "lambda2 = " + number_text(config.lambda2) + " must be a number >= 0");
   const auto count = std::uint32_t(grid.triangles.size());
   if (count == 0) throw Error(ErrorCode::invalid_argument, "a grid needs at least one triangle");
   const TriangleVertices* triangles = grid.triangles.data();

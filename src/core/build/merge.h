@@ -12,6 +12,7 @@
 #include <utility>
 
 #include "core/build/merge_pairs.h"
+#include "core/number_text.h"
 #include "irgrid/error.h"
 
 namespace irgrid {
@@ -288,9 +289,9 @@ void merge_cells(Exec& exec, GridArrays<Exec>& grid, float alpha, float cost_rat
                  float empty_aspect = 0, float in_place_below = kMergeInPlaceBelow) {
   if (!(cost_ratio >= 0) || !std::isfinite(cost_ratio))
     throw Error(ErrorCode::invalid_argument,
-                "cost_ratio = " + std::to_string(cost_ratio) + " must be a number >= 0");
+                "cost_ratio = " + number_text(cost_ratio) + " must be a number >= 0");
   if (!(empty_aspect == 0 || (empty_aspect >= 1 && std::isfinite(empty_aspect))))
-    throw Error(ErrorCode::invalid_argument, "empty_aspect = " + std::to_string(empty_aspect) +
+    throw Error(ErrorCode::invalid_argument, "empty_aspect = " + number_text(empty_aspect) +
                                                  " must be 0 (no bound) or a number >= 1");
   if (!(alpha > 0)) return;
   auto quiet = exec.template allocate<std::uint32_t>(grid.info.num_cells);

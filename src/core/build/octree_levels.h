@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "core/build/memory_budget.h"
 #include "core/build/top_level_refs.h"
 #include "irgrid/build_config.h"
 
@@ -104,22 +105,18 @@ IRGRID_HD inline std::uint32_t child_overlap_mask(const GridInfo& info, Voxel lo
 }
 
 /// Throws Error{out_of_memory} when a build whose initial grid holds `entries` map entries,
-/// `cells` cells and `refs` references would outgrow `memory_bytes` (0: unknown, no check). Its
+/// `cells` cells and `refs` references would outgrow `memory_bytes` (check_memory_budget). Its
 /// peak holds those arrays about 3 times: the octrees' own buffers and the grid's arrays they
 /// become, then the old and the new arrays of a merge sweep. Octree builds check as they grow,
 /// so that a runaway octree (a huge lambda2) stops with an error, not killed by the system.
 inline void check_octree_memory(std::uint64_t memory_bytes, std::uint64_t entries,
                                 std::uint64_t cells, std::uint64_t refs) {
-  const std::uint64_t bytes =
-      3 * (entries * sizeof(Entry) + cells * sizeof(Cell) + refs * sizeof(std::uint32_t));
-  if (memory_bytes != 0 && bytes > memory_bytes)
-    throw Error(ErrorCode::out_of_memory,
-                "octrees: " + std::to_string(cells) + " cells, " + std::to_string(entries) +
-                    " map entries and " + std::to_string(refs) +
-                    " references so far; the build would need about " +
-                    std::to_string((bytes + (1u << 20) - 1) >> 20) +
-                    " MiB, more than the machine's " + std::to_string(memory_bytes >> 20) +
-                    " MiB (lower lambda2)");
+  check_memory_budget(
+      memory_bytes,
+      3 * (entries * sizeof(Entry) + cells * sizeof(Cell) + refs * sizeof(std::uint32_t)),
+      "octrees: " + std::to_string(cells) + " cells, " + std::to_string(entries) +
+          " map entries and " + std::to_string(refs) + " references so far; the build",
+      "lower lambda2");
 }
 
 /// Number of set bits of an 8-bit mask, without a library call (x86-64 without -mpopcnt turns

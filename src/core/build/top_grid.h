@@ -11,7 +11,9 @@
 #include <limits>
 #include <string>
 
+#include "core/build/memory_budget.h"
 #include "core/grid/layout.h"
+#include "core/number_text.h"
 #include "core/triangle.h"
 #include "irgrid/build_config.h"
 #include "irgrid/error.h"
@@ -45,6 +47,12 @@ IRGRID_HD inline double power_of(double x, int k) {
   return k == 1 ? x : (k == 2 ? x * x : x * x * x);
 }
 
+/// Whether extent^k (k in 1..3) is a finite double.
+IRGRID_HD inline bool bound_is_finite(float extent, int k) {
+  const double bound = power_of(double(extent), k);
+  return bound - bound == 0;
+}
+
 /// Cleary's resolution for `count` primitives in a box of extents `extent` and density λ:
 /// cells of side s with (product of non-flat extents) / s^k = λ x count, k non-flat axes.
 /// Each axis gets floor(extent / s) cells, computed as the largest integer n with
@@ -68,7 +76,13 @@ IRGRID_HD inline void cleary_resolution(const Vec3<float>& extent, double densit
       out[a] = 0.0;
       continue;
     }
+    // A non-finite extent or density has no resolution: the callers reject 2^40 (and would
+    // otherwise count up to it, one cell at a time).
     const double guess = floor(double(extent[a]) / pow(side_power, 1.0 / axes));
+    if (guess != guess || !bound_is_finite(extent[a], axes)) {
+      out[a] = 0x1p40;
+      continue;
+    }
     // Beyond 2^40 the callers reject the resolution anyway; keep the products finite.
     double n = fmin(fmax(guess, 0.0), 0x1p40);
     const double bound = power_of(double(extent[a]), axes);
@@ -86,16 +100,27 @@ GridInfo plan_top_grid(Exec& exec, const TriangleVertices* triangles, std::uint3
                        const BuildConfig& config) {
   if (!(config.lambda1 > 0) || !std::isfinite(config.lambda1))
     throw Error(ErrorCode::invalid_argument,
-                "lambda1 = " + std::to_string(config.lambda1) + " must be a positive number");
+                "lambda1 = " + number_text(config.lambda1) + " must be a positive number");
   const float inf = std::numeric_limits<float>::infinity();
   const BoxF empty{{inf, inf, inf}, {-inf, -inf, -inf}};
   const BoxF box = exec.transform_reduce(
       "scene box", count, empty,
       [] IRGRID_HD(const BoxF& a, const BoxF& b) { return box_union(a, b); },
       [triangles] IRGRID_HD(std::size_t i) { return triangle_box(triangles[i]); });
+  // Float positions along the grid need a finite box and extent: a scene wider than the float
+  // range (3.4e38) cannot be gridded (its extent would be infinite).
+  const float padding = insertion_padding(box);
+  for (int a = 0; a < 3; ++a) {
+    if (!std::isfinite((box.hi[a] + 4 * padding) - (box.lo[a] - 4 * padding)))
+      throw Error(ErrorCode::limit_exceeded,
+                  std::string("the triangles span ") + number_text(box.lo[a]) + " to " +
+                      number_text(box.hi[a]) + " along " + "xyz"[a] +
+                      ": a grid's box must be narrower than the float range (3.4e38); scale the "
+                      "scene down");
+  }
   GridInfo info{};
   info.num_triangles = count;
-  info.padding = insertion_padding(box);
+  info.padding = padding;
   // Grow the box so that padded triangles lie inside and no axis has zero extent.
   const float margin = grid_margin(info);
   Vec3<float> extent;
@@ -115,9 +140,15 @@ GridInfo plan_top_grid(Exec& exec, const TriangleVertices* triangles, std::uint3
   if (total > kMaxEntryTarget || dims[0] > kMaxVirtualResolution ||
       dims[1] > kMaxVirtualResolution || dims[2] > kMaxVirtualResolution)
     throw Error(ErrorCode::limit_exceeded,
-                "lambda1 = " + std::to_string(config.lambda1) + " asks for a top grid of " +
-                    std::to_string(dims[0]) + " x " + std::to_string(dims[1]) + " x " +
-                    std::to_string(dims[2]) + " cells; the limit is 2^30 cells and 2^24 per axis");
+                "lambda1 = " + number_text(config.lambda1) + " asks for a top grid of " +
+                    number_text(dims[0]) + " x " + number_text(dims[1]) + " x " +
+                    number_text(dims[2]) + " cells; the limit is 2^30 cells and 2^24 per axis");
+  // Per top cell: its voxel-map entry, octree depth, reference count, empty radii (8 bytes)
+  // and the depth-first octrees' offsets, about 32 bytes in all.
+  check_memory_budget(exec.memory_budget(), std::uint64_t(total) * 32,
+                      "lambda1 = " + number_text(config.lambda1) + ": a top grid of " +
+                          number_text(total) + " cells",
+                      "lower lambda1");
   return info;
 }
 
