@@ -121,6 +121,31 @@ TEST_F(Cli, BadGridOptionsAreExitTwoBeforeLoading) {
   EXPECT_EQ(run("build builtin:cube --alpha -1 --expansion-passes 0 --empty-aspect 0").code, 0);
 }
 
+TEST_F(Cli, UnwritableJsonIsExitTwoBeforeLoading) {
+  const std::string json = (dir / "no-such-folder" / "out.json").string();
+  for (const char* command : {"build builtin:cube", "bench builtin:cube --repeat 1"}) {
+    const Result r = run(std::string(command) + " --json " + json);
+    EXPECT_EQ(r.code, 2) << command;
+    EXPECT_NE(r.err.find(json + ": cannot create"), std::string::npos) << command << ": " << r.err;
+    EXPECT_EQ(r.err.find("loaded"), std::string::npos) << command << ": the scene was loaded first";
+  }
+}
+
+TEST_F(Cli, BuildPrintsPhasesInTheOrderTheyRun) {
+  const Result r = run("build builtin:cornell");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const char* phases[] = {"top grid", "octree levels", "cells and references",
+                          "merge",    "voxel map",     "expansion"};
+  std::size_t last = 0;
+  for (const char* phase : phases) {
+    const std::size_t at = r.out.find(std::string("phase ") + phase);
+    ASSERT_NE(at, std::string::npos) << phase << "\n" << r.out;
+    EXPECT_GT(at, last) << phase << " out of order:\n" << r.out;
+    last = at;
+  }
+  EXPECT_NE(r.out.find("peak memory during the build"), std::string::npos) << r.out;
+}
+
 TEST_F(Cli, UnknownOrUnavailableBackendIsExitTwoBeforeLoading) {
   const Result unknown = run("build builtin:cube --backend gpu");
   EXPECT_EQ(unknown.code, 2);

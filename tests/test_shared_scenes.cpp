@@ -1,4 +1,5 @@
-// Loads the 8 real scenes of the shared scenes folder and checks the counts its README lists.
+// Loads the 8 real scenes of the shared scenes folder, checks the counts its README lists, and
+// traces every ray kind of every view through the irregular grid against the double reference.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -6,8 +7,13 @@
 #include <filesystem>
 #include <iostream>
 #include <string>
+#include <vector>
 
+#include "irgrid/accelerator.h"
+#include "irgrid/camera.h"
+#include "irgrid/rays.h"
 #include "irgrid/scene.h"
+#include "irgrid/validate.h"
 
 namespace irgrid {
 namespace {
@@ -61,6 +67,38 @@ TEST_P(SharedScenesTest, CountsMatchReadme) {
             << " dropped_nonfinite=" << report.dropped_nonfinite << " load_s=" << seconds << "\n";
   for (const auto& warning : report.warnings)
     std::cout << "  warning: " << warning << "\n";
+}
+
+TEST_P(SharedScenesTest, IrregularGridEqualsTheDoubleReferenceOnEveryViewAndRayKind) {
+  const std::filesystem::path path = std::filesystem::path(IRGRID_SHARED_SCENES) / GetParam().file;
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << "shared scene not present: " << path;
+  const Scene scene = load_scene(path.string());
+  const auto grid = make_accelerator(scene, "irregular");
+  const ReferenceTracer reference(scene);
+  // Smaller than bench's sets, every ray checked: `bench --validate` samples bigger ones.
+  RayConfig config;
+  config.width = 96, config.height = 64, config.spp = 2, config.count = 8192;
+  const auto views = scene_views(scene);
+  ASSERT_FALSE(views.empty());
+  for (std::size_t v = 0; v < views.size(); ++v)
+    for (const RayKind kind : {RayKind::primary, RayKind::ao, RayKind::diffuse, RayKind::random}) {
+      const std::vector<Ray> rays = generate_rays(scene, views[v], kind, config, grid.get());
+      // As bench traces them: ambient occlusion asks whether anything is hit.
+      const Query query = kind == RayKind::ao ? Query::any : Query::closest;
+      std::vector<Hit> hits(rays.size());
+      grid->trace(rays, hits, query);
+      const Validation result = validate_hits(reference, scene, rays, hits, query, rays.size());
+      EXPECT_EQ(result.checked, rays.size());
+      EXPECT_EQ(result.mismatches, 0u)
+          << scene.name << " view " << v << " " << to_string(kind) << ": "
+          << (result.examples.empty() ? std::string() : result.examples.front());
+      if (kind == RayKind::primary) {
+        std::size_t hit_count = 0;
+        for (const Hit& hit : hits)
+          hit_count += hit.hit();
+        EXPECT_GT(hit_count, rays.size() / 10) << scene.name << " view " << v << ": few hits";
+      }
+    }
 }
 
 std::string scene_test_name(const ::testing::TestParamInfo<SharedScene>& info) {

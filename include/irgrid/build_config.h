@@ -12,11 +12,12 @@ struct BuildConfig {
   float lambda2 = 2.4f;
   /// An octree node holding more than this many references splits further than its top cell's
   /// λ2 depth, down to the finest depth at which cells still compress to 16 bytes, while the
-  /// split separates its triangles (its children hold at most 1.5 x its references). The
+  /// split separates its triangles (its children hold at most 2 x its references). The
   /// paper's one depth per top cell leaves a small dense object beside large triangles (a
   /// teapot in a stadium) with hundreds of triangles per cell. 0 disables it (the paper's rule).
   unsigned split_refs = 64;
-  /// Merging stops when a sweep keeps at least alpha x the cells; <= 0 disables merging.
+  /// Merging stops when a sweep keeps at least alpha x the cells; <= 0 (or NaN) disables
+  /// merging.
   float alpha = 0.995f;
   /// Cost of a traversal step in triangle tests (the SAH's C_t / C_i) for merging. >= 0.
   float cost_ratio = 1.0f;

@@ -202,6 +202,7 @@ int run_bench(BenchOptions o) {
   if (o.build_repeat < 0) o.build_repeat = o.repeat;
   if (o.config.count == 0)
     o.config.count = std::uint64_t(o.config.width) * std::uint64_t(o.config.height);
+  if (!o.json.empty()) check_writable(o.json);
   const Scene scene = load_scene_reporting(o.scene);
   auto contenders = parse_contenders(o);
   for (auto& c : contenders)

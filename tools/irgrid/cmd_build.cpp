@@ -1,5 +1,8 @@
 // `irgrid build`: builds a structure and prints its statistics (counts, bytes, phase times).
+#include <algorithm>
 #include <fstream>
+#include <string>
+#include <vector>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -49,17 +52,31 @@ void print_statistics(const nlohmann::json& s) {
              s["structure"].get<std::string>(), s["backend"].get<std::string>(),
              s["scene"].get<std::string>(), s["triangles"].get<std::uint64_t>(),
              s["build_ms"].get<double>());
-  for (const auto& [phase, ms] : s["build_phases_ms"].items())
-    fmt::print("  phase {:<22} {:>10.2f} ms\n", phase, ms.get<double>());
+  // The phases in the order a grid build runs them (JSON objects sort their keys), then any
+  // other structure's.
+  const auto& phases = s["build_phases_ms"];
+  std::vector<std::string> order = {
+      "top grid", "octree levels", "empty space", "cells and references",
+      "merge",    "voxel map",     "expansion",   "compress"};
+  for (const auto& [phase, ms] : phases.items())
+    if (std::find(order.begin(), order.end(), phase) == order.end()) order.push_back(phase);
+  for (const auto& phase : order)
+    if (phases.contains(phase))
+      fmt::print("  phase {:<22} {:>10.2f} ms\n", phase, phases[phase].get<double>());
   for (const auto& [name, count] : s["counts"].items())
-    fmt::print("  {:<28} {:>10}\n", name, count.get<std::uint64_t>());
+    if (name != "peak_build_bytes")
+      fmt::print("  {:<28} {:>10}\n", name, count.get<std::uint64_t>());
   for (const auto& [name, bytes] : s["memory_breakdown_bytes"].items())
     fmt::print("  bytes {:<22} {:>10.2f} MiB\n", name, bytes.get<double>() / 1048576.0);
   fmt::print("  memory {:>31.2f} MiB ({:.1f} bytes per triangle)\n",
              s["memory_bytes"].get<double>() / 1048576.0, s["bytes_per_triangle"].get<double>());
+  if (s["counts"].contains("peak_build_bytes"))
+    fmt::print("  peak memory during the build {:>9.2f} MiB\n",
+               s["counts"]["peak_build_bytes"].get<double>() / 1048576.0);
 }
 
 void run_build(const BuildOptions& o) {
+  if (!o.json.empty()) check_writable(o.json);
   const Scene scene = load_scene_reporting(o.scene);
   const auto accelerator = build_reporting(scene, o.structure);
   const auto statistics = statistics_json(scene, *accelerator, o.structure.grid);

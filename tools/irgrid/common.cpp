@@ -3,6 +3,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <fstream>
 
 #include <fmt/format.h>
 
@@ -15,6 +16,11 @@ namespace irgrid::cli {
 double milliseconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
       .count();
+}
+
+void check_writable(const std::string& path) {
+  std::ofstream file(path, std::ios::app);
+  if (!file) throw Error(ErrorCode::io, fmt::format("{}: cannot create", path));
 }
 
 Scene load_scene_reporting(const std::string& spec) {
