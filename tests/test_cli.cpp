@@ -3,6 +3,7 @@
 
 #include <sys/wait.h>
 
+#include <array>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -134,8 +135,10 @@ TEST_F(Cli, UnwritableJsonIsExitTwoBeforeLoading) {
 TEST_F(Cli, BuildPrintsPhasesInTheOrderTheyRun) {
   const Result r = run("build builtin:cornell");
   ASSERT_EQ(r.code, 0) << r.err;
-  const char* phases[] = {"top grid", "octree levels", "cells and references",
-                          "merge",    "voxel map",     "expansion"};
+  const char* phases[] = {"top grid",      "top-level references",
+                          "octree levels", "cells and references",
+                          "merge",         "voxel map",
+                          "expansion"};
   std::size_t last = 0;
   for (const char* phase : phases) {
     const std::size_t at = r.out.find(std::string("phase ") + phase);
@@ -279,11 +282,34 @@ TEST_F(Cli, CompareRunsEveryStructureOnTheSameRays) {
   }
 }
 
+/// The mean, 99th percentile and largest work per ray that `render --mode heatmap` printed.
+std::array<double, 3> heatmap_work(const std::string& out) {
+  std::array<double, 3> work{-1, -1, -1};
+  std::sscanf(out.c_str(),
+              "work per ray (cells + triangle tests): mean %lf, 99th percentile %lf, max %lf",
+              &work[0], &work[1], &work[2]);
+  return work;
+}
+
 TEST_F(Cli, HeatmapRendersWorkPerPixel) {
   const auto png = (dir / "heat.png").string();
   const auto r = run("render builtin:cornell --mode heatmap -w 32 -h 24 -o " + png);
   ASSERT_EQ(r.code, 0) << r.err;
-  EXPECT_NE(r.out.find("work per ray"), std::string::npos);
+  const auto work = heatmap_work(r.out);
+  EXPECT_GE(work[0], 1.0) << "every ray visits a cell: " << r.out;
+  EXPECT_LE(work[0], work[2]) << r.out;
+  EXPECT_LE(work[1], work[2]) << r.out;
+  std::ifstream file(png, std::ios::binary);
+  char magic[4] = {};
+  file.read(magic, 4);
+  EXPECT_EQ(std::string(magic + 1, 3), "PNG");
+  // The picture measures the structure: the uniform grid does far more work per ray on the
+  // teapot in the stadium than the irregular grid.
+  const auto scene =
+      std::string("render builtin:teapot-stadium --mode heatmap -w 32 -h 24 -o ") + png;
+  const auto irregular = heatmap_work(run(scene).out),
+             uniform = heatmap_work(run(scene + " --structure uniform").out);
+  EXPECT_GT(uniform[0], 10 * irregular[0]);
   EXPECT_EQ(run("render builtin:cornell --mode heatmap --structure brute -w 8 -h 8 -o " + png).code,
             2);
 }

@@ -56,10 +56,10 @@ class Accelerator {
 /// output; grids only). Runs on the calling thread.
 using PhaseObserver = std::function<void(const char* phase)>;
 
-/// How many phases a grid build reports at most: top grid, octree levels, empty space (irregular
-/// grids that skip empty space), cells and references, merge, voxel map, expansion, and
-/// compress when compressed cells are on.
-inline constexpr int kGridBuildPhases = 8;
+/// How many phases a grid build reports at most: top grid, top-level references, octree levels,
+/// empty space (irregular grids that skip empty space), cells and references, merge, voxel map,
+/// expansion, and compress when compressed cells are on.
+inline constexpr int kGridBuildPhases = 9;
 
 /// Options for make_accelerator; more fields arrive with more structures.
 struct AcceleratorOptions {

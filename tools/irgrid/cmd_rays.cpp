@@ -39,7 +39,7 @@ void add_rays_command(CLI::App& app) {
   cmd->add_option("--kind", o->kind, "primary, ao, diffuse or random")->capture_default_str();
   cmd->add_option("--view", o->view, "Index of the camera in the scene's views")
       ->capture_default_str();
-  cmd->add_option("--views", o->views_file, "views.json to take the cameras from");
+  cmd->add_option("--views-file,--views", o->views_file, "views.json to take the cameras from");
   cmd->add_option("--spp", o->config.spp, "Secondary rays per primary hit (ao, diffuse)")
       ->capture_default_str();
   cmd->add_option("--count", o->config.count, "Number of random rays")->capture_default_str();

@@ -166,7 +166,7 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("-o,--output", o->output, "PNG file to write")->required();
   cmd->add_option("--view", o->view, "Index of the camera in the scene's views")
       ->capture_default_str();
-  cmd->add_option("--views", o->views_file, "views.json to take the cameras from");
+  cmd->add_option("--views-file,--views", o->views_file, "views.json to take the cameras from");
   cmd->add_option("--eye", o->eye, "Camera position x,y,z (with --target)");
   cmd->add_option("--target", o->target, "Point looked at x,y,z");
   cmd->add_option("--up", o->up, "Up vector x,y,z (with --eye)")->capture_default_str();

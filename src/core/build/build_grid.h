@@ -107,8 +107,9 @@ std::int32_t build_initial_grid(Exec& exec, GridArrays<Exec>& grid, const BuildC
   if (count == 0) throw Error(ErrorCode::invalid_argument, "a grid needs at least one triangle");
   const TriangleVertices* triangles = grid.triangles.data();
   grid.info = plan_top_grid(exec, triangles, count, config);
-  auto pairs = emit_top_level_refs(exec, triangles, grid.info);
   clock.lap("top grid");
+  auto pairs = emit_top_level_refs(exec, triangles, grid.info);
+  clock.lap("top-level references");
   const OctreeDepths<Exec> depths = plan_octree_depths(exec, grid.info, pairs, config);
   const OctreeRule rule{depths.per_top_cell.data(), config.shape == BuildConfig::Shape::two_level,
                         config.split_refs, depths.count_split};
