@@ -196,9 +196,10 @@ TEST_F(Cli, BenchValidatesAndWritesJson) {
       "bench builtin:cornell --structure brute --width 24 --height 16 --repeat 2 --validate 200",
       "bench.json");
   ASSERT_EQ(r.code, 0) << r.err;
-  for (const char* key : {"scene", "triangles", "backend", "structure", "build_ms",
+  for (const char* key : {"scene", "scene_file", "triangles", "backend", "structure", "build_ms",
                           "build_phases_ms", "memory_bytes", "machine", "runs"})
     EXPECT_TRUE(json.contains(key)) << key;
+  EXPECT_EQ(json["scene_file"], "builtin:cornell");
   ASSERT_EQ(json["runs"].size(), 8u);  // 2 views x 4 kinds
   for (const auto& run : json["runs"]) {
     EXPECT_EQ(run["mismatches"], 0);
@@ -233,6 +234,7 @@ TEST_F(Cli, BuildPrintsStatisticsAndJson) {
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("cells"), std::string::npos);
   EXPECT_EQ(json["structure"], "irregular");
+  EXPECT_EQ(json["scene_file"], "builtin:cornell");
   EXPECT_GT(json["counts"]["cells"].get<int>(), 0);
   EXPECT_FLOAT_EQ(json["config"]["lambda1"].get<float>(), 0.5f);
   EXPECT_GT(json["memory_breakdown_bytes"]["voxel_map"].get<int>(), 0);

@@ -87,9 +87,11 @@ nlohmann::json result_json(const BenchResult& r) {
 
 }  // namespace
 
-void write_bench_json(const std::vector<BenchResult>& results, const std::string& path) {
+void write_bench_json(const std::vector<BenchResult>& results, const std::string& scene_file,
+                      const std::string& path) {
   const auto machine = machine_info();
   nlohmann::json out = result_json(results.front());
+  out["scene_file"] = scene_file;
   out["irgrid_version"] = version();
   out["machine"] = {{"cpu", machine.cpu_model},
                     {"threads", machine.tbb_threads},

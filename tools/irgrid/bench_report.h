@@ -37,6 +37,7 @@ void print_comparison(const std::vector<BenchResult>& results);
 
 /// The stable JSON of docs/bench-json.md: the first result at the top level, and all of them
 /// under "compare" when there are several.
-void write_bench_json(const std::vector<BenchResult>& results, const std::string& path);
+void write_bench_json(const std::vector<BenchResult>& results, const std::string& scene_file,
+                      const std::string& path);
 
 }  // namespace irgrid::cli

@@ -224,7 +224,7 @@ int run_bench(BenchOptions o) {
   for (const auto& result : results)
     print_bench_table(result);
   if (results.size() > 1) print_comparison(results);
-  if (!o.json.empty()) write_bench_json(results, o.json);
+  if (!o.json.empty()) write_bench_json(results, o.scene, o.json);
   std::uint64_t mismatches = 0;
   for (const auto& result : results)
     for (const auto& run : result.runs)

@@ -19,12 +19,13 @@ struct BuildOptions {
   StructureOptions structure;
 };
 
-nlohmann::json statistics_json(const Scene& scene, const Accelerator& accelerator,
-                               const BuildConfig& grid) {
+nlohmann::json statistics_json(const Scene& scene, const std::string& scene_file,
+                               const Accelerator& accelerator, const BuildConfig& grid) {
   const BuildInfo& info = accelerator.build_info();
   const double per_triangle =
       scene.triangle_count() ? double(info.memory_bytes) / double(scene.triangle_count()) : 0;
   return {{"scene", scene.name},
+          {"scene_file", scene_file},
           {"triangles", scene.triangle_count()},
           {"structure", accelerator.structure()},
           {"backend", accelerator.backend()},
@@ -85,7 +86,7 @@ void run_build(const BuildOptions& o) {
   if (!o.json.empty()) check_writable(o.json);
   const Scene scene = load_scene_reporting(o.scene);
   const auto accelerator = build_reporting(scene, o.structure);
-  const auto statistics = statistics_json(scene, *accelerator, o.structure.grid);
+  const auto statistics = statistics_json(scene, o.scene, *accelerator, o.structure.grid);
   print_statistics(statistics);
   if (o.json.empty()) return;
   std::ofstream file(o.json);
