@@ -393,8 +393,8 @@ std::uint64_t PlyBodyReader::list_length(const PlyProperty& property, Cursor& cu
   const double count = cursor.number(property.count_type);
   // Every item takes at least one byte, so a longer list cannot be real data.
   if (!(count >= 0 && count <= double(body_size_)))
-    throw Error(ErrorCode::io, path_ + ": invalid list length " + number_text(count) + " in " +
-                                   context.where());
+    throw Error(ErrorCode::io,
+                path_ + ": invalid list length " + number_text(count) + " in " + context.where());
   return std::uint64_t(count);
 }
 

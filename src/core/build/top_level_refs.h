@@ -79,8 +79,9 @@ inline void check_reference_count(std::uint64_t count, const char* phase) {
 /// Throws Error{limit_exceeded} when `count` voxel-map entries do not fit the 30-bit limit.
 inline void check_entry_count(std::uint64_t count) {
   if (count > kMaxEntryTarget)
-    throw Error(ErrorCode::limit_exceeded, "voxel map: " + std::to_string(count) +
-                                               " entries exceed the limit of 2^30 - 1 (lower lambda2)");
+    throw Error(ErrorCode::limit_exceeded,
+                "voxel map: " + std::to_string(count) +
+                    " entries exceed the limit of 2^30 - 1 (lower lambda2)");
 }
 
 /// Emits the (top cell, triangle) pairs, triangle-major (so each cell's triangles ascend).
