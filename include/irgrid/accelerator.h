@@ -2,6 +2,7 @@
 #pragma once
 
 #include <functional>
+#include <iterator>
 #include <map>
 #include <memory>
 #include <span>
@@ -56,10 +57,20 @@ class Accelerator {
 /// output; grids only). Runs on the calling thread.
 using PhaseObserver = std::function<void(const char* phase)>;
 
-/// How many phases a grid build reports at most: top grid, top-level references, octree levels,
-/// empty space (irregular grids that skip empty space), cells and references, merge, voxel map,
-/// expansion, and compress when compressed cells are on.
-inline constexpr int kGridBuildPhases = 9;
+/// The phases a grid build reports (BuildInfo::phases_ms), in the order they run: "empty space"
+/// only for irregular grids that skip empty space, "compress" only with compressed cells.
+inline constexpr const char* kGridBuildPhaseNames[] = {"top grid",
+                                                       "top-level references",
+                                                       "octree levels",
+                                                       "empty space",
+                                                       "cells and references",
+                                                       "merge",
+                                                       "voxel map",
+                                                       "expansion",
+                                                       "compress"};
+
+/// How many phases a grid build reports at most.
+inline constexpr int kGridBuildPhases = int(std::size(kGridBuildPhaseNames));
 
 /// Options for make_accelerator; more fields arrive with more structures.
 struct AcceleratorOptions {

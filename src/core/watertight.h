@@ -254,9 +254,10 @@ IRGRID_HD IRGRID_ALWAYS_INLINE bool intersect_watertight(const WatertightRay<T>&
   if constexpr (sizeof(T) == 4) {
     // An edge function of exactly zero may be a rounding artefact: redo it in double.
     if (u == T(0) || v == T(0) || w == T(0)) {
-      u = T(difference_of_products(double(x[2]), double(y[1]), double(y[2]), double(x[1])));
-      v = T(difference_of_products(double(x[0]), double(y[2]), double(y[0]), double(x[2])));
-      w = T(difference_of_products(double(x[1]), double(y[0]), double(y[1]), double(x[0])));
+      const double xd[3] = {x[0], x[1], x[2]}, yd[3] = {y[0], y[1], y[2]};
+      double ud, vd, wd;
+      edge_functions(xd, yd, ud, vd, wd);
+      u = T(ud), v = T(vd), w = T(wd);
       if (mixed_signs(u, v, w)) return false;
     }
   }

@@ -56,15 +56,7 @@ void print_statistics(const nlohmann::json& s) {
   // The phases in the order a grid build runs them (JSON objects sort their keys), then any
   // other structure's.
   const auto& phases = s["build_phases_ms"];
-  std::vector<std::string> order = {"top grid",
-                                    "top-level references",
-                                    "octree levels",
-                                    "empty space",
-                                    "cells and references",
-                                    "merge",
-                                    "voxel map",
-                                    "expansion",
-                                    "compress"};
+  std::vector<std::string> order(std::begin(kGridBuildPhaseNames), std::end(kGridBuildPhaseNames));
   for (const auto& [phase, ms] : phases.items())
     if (std::find(order.begin(), order.end(), phase) == order.end()) order.push_back(phase);
   for (const auto& phase : order)

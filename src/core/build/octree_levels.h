@@ -114,8 +114,10 @@ inline void check_octree_memory(std::uint64_t memory_bytes, std::uint64_t entrie
   check_memory_budget(
       memory_bytes,
       3 * (entries * sizeof(Entry) + cells * sizeof(Cell) + refs * sizeof(std::uint32_t)),
-      "octrees: " + std::to_string(cells) + " cells, " + std::to_string(entries) +
-          " map entries and " + std::to_string(refs) + " references so far; the build",
+      [&] {
+        return "octrees: " + std::to_string(cells) + " cells, " + std::to_string(entries) +
+               " map entries and " + std::to_string(refs) + " references so far; the build";
+      },
       "lower lambda2");
 }
 

@@ -47,12 +47,6 @@ IRGRID_HD inline double power_of(double x, int k) {
   return k == 1 ? x : (k == 2 ? x * x : x * x * x);
 }
 
-/// Whether extent^k (k in 1..3) is a finite double.
-IRGRID_HD inline bool bound_is_finite(float extent, int k) {
-  const double bound = power_of(double(extent), k);
-  return bound - bound == 0;
-}
-
 /// Cleary's resolution for `count` primitives in a box of extents `extent` and density λ:
 /// cells of side s with (product of non-flat extents) / s^k = λ x count, k non-flat axes.
 /// Each axis gets floor(extent / s) cells, computed as the largest integer n with
@@ -76,16 +70,16 @@ IRGRID_HD inline void cleary_resolution(const Vec3<float>& extent, double densit
       out[a] = 0.0;
       continue;
     }
-    // A non-finite extent or density has no resolution: the callers reject 2^40 (and would
-    // otherwise count up to it, one cell at a time).
     const double guess = floor(double(extent[a]) / pow(side_power, 1.0 / axes));
-    if (guess != guess || !bound_is_finite(extent[a], axes)) {
+    const double bound = power_of(double(extent[a]), axes);
+    // A non-finite extent or density has no resolution: the callers reject 2^40 (and the search
+    // below would count up to it, one cell at a time).
+    if (guess != guess || !(bound - bound == 0)) {
       out[a] = 0x1p40;
       continue;
     }
     // Beyond 2^40 the callers reject the resolution anyway; keep the products finite.
     double n = fmin(fmax(guess, 0.0), 0x1p40);
-    const double bound = power_of(double(extent[a]), axes);
     while (n > 0 && power_of(n, axes) * side_power > bound)
       n -= 1;
     while (n < 0x1p40 && power_of(n + 1, axes) * side_power <= bound)
@@ -107,20 +101,9 @@ GridInfo plan_top_grid(Exec& exec, const TriangleVertices* triangles, std::uint3
       "scene box", count, empty,
       [] IRGRID_HD(const BoxF& a, const BoxF& b) { return box_union(a, b); },
       [triangles] IRGRID_HD(std::size_t i) { return triangle_box(triangles[i]); });
-  // Float positions along the grid need a finite box and extent: a scene wider than the float
-  // range (3.4e38) cannot be gridded (its extent would be infinite).
-  const float padding = insertion_padding(box);
-  for (int a = 0; a < 3; ++a) {
-    if (!std::isfinite((box.hi[a] + 4 * padding) - (box.lo[a] - 4 * padding)))
-      throw Error(ErrorCode::limit_exceeded,
-                  std::string("the triangles span ") + number_text(box.lo[a]) + " to " +
-                      number_text(box.hi[a]) + " along " + "xyz"[a] +
-                      ": a grid's box must be narrower than the float range (3.4e38); scale the "
-                      "scene down");
-  }
   GridInfo info{};
   info.num_triangles = count;
-  info.padding = padding;
+  info.padding = insertion_padding(box);
   // Grow the box so that padded triangles lie inside and no axis has zero extent.
   const float margin = grid_margin(info);
   Vec3<float> extent;
@@ -128,6 +111,14 @@ GridInfo plan_top_grid(Exec& exec, const TriangleVertices* triangles, std::uint3
     info.box_lo[a] = box.lo[a] - margin;
     info.box_hi[a] = box.hi[a] + margin;
     extent[a] = box.hi[a] - box.lo[a];
+    // Float positions along the grid need a finite box and extent: a scene wider than the
+    // float range (3.4e38) cannot be gridded.
+    if (!std::isfinite(info.box_hi[a] - info.box_lo[a]))
+      throw Error(ErrorCode::limit_exceeded,
+                  std::string("the triangles span ") + number_text(box.lo[a]) + " to " +
+                      number_text(box.hi[a]) + " along " + "xyz"[a] +
+                      ": a grid's box must be narrower than the float range (3.4e38); scale the "
+                      "scene down");
   }
   double dims[3];
   cleary_resolution(extent, config.lambda1, count, margin, dims);
@@ -145,10 +136,13 @@ GridInfo plan_top_grid(Exec& exec, const TriangleVertices* triangles, std::uint3
                     number_text(dims[2]) + " cells; the limit is 2^30 cells and 2^24 per axis");
   // Per top cell: its voxel-map entry, octree depth, reference count, empty radii (8 bytes)
   // and the depth-first octrees' offsets, about 32 bytes in all.
-  check_memory_budget(exec.memory_budget(), std::uint64_t(total) * 32,
-                      "lambda1 = " + number_text(config.lambda1) + ": a top grid of " +
-                          number_text(total) + " cells",
-                      "lower lambda1");
+  check_memory_budget(
+      exec.memory_budget(), std::uint64_t(total) * 32,
+      [&] {
+        return "lambda1 = " + number_text(config.lambda1) + ": a top grid of " +
+               number_text(total) + " cells";
+      },
+      "lower lambda1");
   return info;
 }
 

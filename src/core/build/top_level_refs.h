@@ -100,8 +100,9 @@ RefPairs<Exec> emit_top_level_refs(Exec& exec, const TriangleVertices* triangles
   const std::uint64_t total = wide_sum(exec, "top-level total", d_offsets, n);
   check_reference_count(total, "top-level references");
   // The pairs (8 bytes each), and as much again while the octrees sort them into top cells.
-  check_memory_budget(exec.memory_budget(), total * 16,
-                      std::to_string(total) + " top-level references", "lower lambda1");
+  check_memory_budget(
+      exec.memory_budget(), total * 16,
+      [&] { return std::to_string(total) + " top-level references"; }, "lower lambda1");
   exec.exclusive_scan("top-level offsets", d_offsets, d_offsets, n);
   RefPairs<Exec> pairs{exec.template allocate<std::uint32_t>(total),
                        exec.template allocate<std::uint32_t>(total), std::uint32_t(total)};
