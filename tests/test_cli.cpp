@@ -249,6 +249,21 @@ TEST_F(Cli, BuildPrintsStatisticsAndJson) {
   EXPECT_EQ(run("build builtin:cornell --lambda1 -1").code, 2);
 }
 
+TEST_F(Cli, BuildSaysWhenASmallSceneRaisesLambda2) {
+  const auto [raised, raised_json] = run_json("build builtin:cornell", "raised.json");
+  ASSERT_EQ(raised.code, 0) << raised.err;
+  const auto refs = raised_json["counts"]["top_level_references"].get<double>();
+  const auto min_cells = raised_json["config"]["min_cells"].get<double>();
+  ASSERT_GT(refs, 0);
+  EXPECT_NEAR(raised_json["lambda2_used"].get<double>(), min_cells / refs, 1e-9);
+  EXPECT_NE(raised.out.find("lambda2 used"), std::string::npos) << raised.out;
+  const auto [paper, paper_json] = run_json("build builtin:cornell --min-cells 0", "paper.json");
+  ASSERT_EQ(paper.code, 0) << paper.err;
+  EXPECT_FLOAT_EQ(paper_json["lambda2_used"].get<float>(), 2.4f);
+  EXPECT_EQ(paper.out.find("lambda2 used"), std::string::npos) << paper.out;
+  EXPECT_EQ(run("build builtin:cornell --min-cells -1").code, 2);
+}
+
 TEST_F(Cli, PrimitiveProfileListsTheBuildsPrimitives) {
   ::setenv("IRGRID_PRIMITIVE_PROFILE", "1", 1);
   const Result r = run("build builtin:cornell");

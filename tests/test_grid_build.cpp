@@ -380,6 +380,44 @@ TEST(OctreeSplit, ThresholdAboveEveryCountGivesThePaperGrid) {
   EXPECT_EQ(a.refs.size(), b.refs.size());
 }
 
+TEST(SmallScenes, Lambda2IsRaisedOnlyBelowMinCells) {
+  BuildConfig config;
+  config.lambda2 = 2.5f;
+  config.min_cells = 1000;
+  EXPECT_DOUBLE_EQ(effective_lambda2(config, 100), 10.0);  // 2.5 x 100 < 1000
+  EXPECT_DOUBLE_EQ(effective_lambda2(config, 400), 2.5);   // exactly 1000
+  EXPECT_DOUBLE_EQ(effective_lambda2(config, 4000), 2.5);
+  EXPECT_DOUBLE_EQ(effective_lambda2(config, 0), 2.5);
+  config.min_cells = 0;
+  EXPECT_DOUBLE_EQ(effective_lambda2(config, 1), 2.5);
+}
+
+TEST(SmallScenes, ARaisedLambda2BuildsTheGridThatLambda2WouldBuild) {
+  // The Cornell room's 228 triangles make about 500 top-level references, far below the
+  // default min_cells: its grid is the one the paper's rule builds with the raised λ2.
+  const Scene scene = load_scene("builtin:cornell");
+  const auto raised = build_test_grid(scene, BuildConfig{});
+  BuildConfig explicit_lambda2;
+  explicit_lambda2.min_cells = 0;
+  explicit_lambda2.lambda2 = float(effective_lambda2(BuildConfig{}, raised.top_level_refs));
+  EXPECT_GT(explicit_lambda2.lambda2, 10 * BuildConfig{}.lambda2);
+  const auto paper = build_test_grid(scene, explicit_lambda2);
+  testing::expect_same_grid(raised, paper);
+  BuildConfig unraised;
+  unraised.min_cells = 0;
+  EXPECT_GT(raised.info.shift, build_test_grid(scene, unraised).info.shift);
+}
+
+TEST(SmallScenes, TheBaselinesKeepThePapersLambda2) {
+  const Scene scene = load_scene("builtin:cornell");
+  for (const auto shape : {BuildConfig::Shape::two_level, BuildConfig::Shape::uniform}) {
+    BuildConfig with, without;
+    with.shape = without.shape = shape;
+    without.min_cells = 0;
+    testing::expect_same_grid(build_test_grid(scene, with), build_test_grid(scene, without));
+  }
+}
+
 /// The CPU executor on a machine with 1 MiB of memory, with either octree build.
 struct TinyMemoryExecutor : CpuExecutor {
   static std::uint64_t memory_budget() { return std::uint64_t(1) << 20; }

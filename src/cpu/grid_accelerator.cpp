@@ -48,7 +48,8 @@ class GridCpu final : public GridAcceleratorBase {
     }
     info_.build_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    record_grid_statistics(grid_.info, !compact_cells_.empty(), grid_.empty_radii.size(), info_);
+    record_grid_statistics(grid_.info, grid_.top_level_refs, !compact_cells_.empty(),
+                           grid_.empty_radii.size(), info_);
     info_.counts["peak_build_bytes"] = std::uint64_t(MemoryMeter::peak() - before);
     if (std::getenv("IRGRID_PRIMITIVE_PROFILE")) print_primitive_profile(exec);
   }

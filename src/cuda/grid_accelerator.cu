@@ -72,7 +72,8 @@ class GridCuda final : public GridAcceleratorBase {
     exec_.pool().trim();
     info_.build_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    record_grid_statistics(grid_.info, !compact_cells_.empty(), grid_.empty_radii.size(), info_);
+    record_grid_statistics(grid_.info, grid_.top_level_refs, !compact_cells_.empty(),
+                           grid_.empty_radii.size(), info_);
     info_.counts["peak_build_bytes"] = exec_.pool().peak();
   }
 

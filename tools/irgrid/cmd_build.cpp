@@ -9,6 +9,7 @@
 
 #include "commands.h"
 #include "common.h"
+#include "irgrid/build_config.h"
 #include "irgrid/error.h"
 
 namespace irgrid::cli {
@@ -24,28 +25,33 @@ nlohmann::json statistics_json(const Scene& scene, const std::string& scene_file
   const BuildInfo& info = accelerator.build_info();
   const double per_triangle =
       scene.triangle_count() ? double(info.memory_bytes) / double(scene.triangle_count()) : 0;
-  return {{"scene", scene.name},
-          {"scene_file", scene_file},
-          {"triangles", scene.triangle_count()},
-          {"structure", accelerator.structure()},
-          {"backend", accelerator.backend()},
-          {"build_ms", info.build_ms},
-          {"build_phases_ms", info.phases_ms},
-          {"counts", info.counts},
-          {"memory_bytes", info.memory_bytes},
-          {"memory_breakdown_bytes", info.bytes},
-          {"bytes_per_triangle", per_triangle},
-          {"config",
-           {{"lambda1", grid.lambda1},
-            {"lambda2", grid.lambda2},
-            {"split_refs", grid.split_refs},
-            {"alpha", grid.alpha},
-            {"cost_ratio", grid.cost_ratio},
-            {"empty_aspect", grid.empty_aspect},
-            {"expansion_passes", grid.expansion_passes},
-            {"partial_expansion", grid.partial_expansion},
-            {"skip_empty", grid.skip_empty},
-            {"compress", grid.compress}}}};
+  nlohmann::json statistics = {{"scene", scene.name},
+                               {"scene_file", scene_file},
+                               {"triangles", scene.triangle_count()},
+                               {"structure", accelerator.structure()},
+                               {"backend", accelerator.backend()},
+                               {"build_ms", info.build_ms},
+                               {"build_phases_ms", info.phases_ms},
+                               {"counts", info.counts},
+                               {"memory_bytes", info.memory_bytes},
+                               {"memory_breakdown_bytes", info.bytes},
+                               {"bytes_per_triangle", per_triangle},
+                               {"config",
+                                {{"lambda1", grid.lambda1},
+                                 {"lambda2", grid.lambda2},
+                                 {"min_cells", grid.min_cells},
+                                 {"split_refs", grid.split_refs},
+                                 {"alpha", grid.alpha},
+                                 {"cost_ratio", grid.cost_ratio},
+                                 {"empty_aspect", grid.empty_aspect},
+                                 {"expansion_passes", grid.expansion_passes},
+                                 {"partial_expansion", grid.partial_expansion},
+                                 {"skip_empty", grid.skip_empty},
+                                 {"compress", grid.compress}}}};
+  const auto refs = info.counts.find("top_level_references");
+  if (accelerator.structure() == "irregular" && refs != info.counts.end())
+    statistics["lambda2_used"] = effective_lambda2(grid, refs->second);
+  return statistics;
 }
 
 void print_statistics(const nlohmann::json& s) {
@@ -62,6 +68,11 @@ void print_statistics(const nlohmann::json& s) {
   for (const auto& phase : order)
     if (phases.contains(phase))
       fmt::print("  phase {:<22} {:>10.2f} ms\n", phase, phases[phase].get<double>());
+  if (s.contains("lambda2_used") &&
+      s["lambda2_used"].get<double>() != s["config"]["lambda2"].get<double>())
+    fmt::print("  lambda2 used {:>26.4g} (raised from {:.4g} to aim at --min-cells {})\n",
+               s["lambda2_used"].get<double>(), s["config"]["lambda2"].get<double>(),
+               s["config"]["min_cells"].get<unsigned>());
   for (const auto& [name, count] : s["counts"].items())
     if (name != "peak_build_bytes")
       fmt::print("  {:<28} {:>10}\n", name, count.get<std::uint64_t>());

@@ -71,6 +71,12 @@ void add_structure_options(CLI::App* command, StructureOptions& options) {
       ->check(finite_number("a number >= 0", [](double v) { return v >= 0; }))
       ->group("Grid");
   command
+      ->add_option("--min-cells", grid.min_cells,
+                   "Small irregular grids raise lambda2 until the octrees aim at this many "
+                   "cells (0: off)")
+      ->capture_default_str()
+      ->group("Grid");
+  command
       ->add_option("--split-refs", grid.split_refs,
                    "Octree nodes holding more references split past their lambda2 depth (0: off)")
       ->capture_default_str()

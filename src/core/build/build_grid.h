@@ -36,7 +36,8 @@ struct OctreeDepths {
 };
 
 /// Per-top-cell octree depths, and the grid's depth D (info.shift): the deepest level any node
-/// may reach, capped so R << D fits the limits. A top cell's depth follows λ2; one holding more
+/// may reach, capped so R << D fits the limits. A top cell's depth follows λ2 (raised in small
+/// irregular grids, effective_lambda2); one holding more
 /// than config.split_refs references may also split nodes by count down to compact_octree_depth.
 template <typename Exec>
 OctreeDepths<Exec> plan_octree_depths(Exec& exec, GridInfo& info, const RefPairs<Exec>& pairs,
@@ -54,7 +55,11 @@ OctreeDepths<Exec> plan_octree_depths(Exec& exec, GridInfo& info, const RefPairs
   const Vec3<float> size = top_cell_size(info);
   const std::int32_t max_depth =
       config.shape == BuildConfig::Shape::uniform ? 0 : max_octree_depth(info);
-  const float lambda2 = config.lambda2, flat = flat_cell_extent(info);
+  // The baselines keep the paper's λ2, as they keep its one depth per top cell.
+  const float lambda2 = config.shape == BuildConfig::Shape::irregular
+                            ? float(effective_lambda2(config, pairs.count))
+                            : config.lambda2;
+  const float flat = flat_cell_extent(info);
   exec.for_each("depth", n, [=] IRGRID_HD(std::size_t i) {
     d_depths[i] = octree_depth(size, lambda2, d_counts[i], max_depth, flat);
   });
@@ -109,6 +114,7 @@ std::int32_t build_initial_grid(Exec& exec, GridArrays<Exec>& grid, const BuildC
   grid.info = plan_top_grid(exec, triangles, count, config);
   clock.lap("top grid");
   auto pairs = emit_top_level_refs(exec, triangles, grid.info);
+  grid.top_level_refs = pairs.count;
   clock.lap("top-level references");
   const OctreeDepths<Exec> depths = plan_octree_depths(exec, grid.info, pairs, config);
   const OctreeRule rule{depths.per_top_cell.data(), config.shape == BuildConfig::Shape::two_level,

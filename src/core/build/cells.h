@@ -29,6 +29,8 @@ struct GridArrays {
   /// Start of each octree level in `entries` while the map is in octree form (one block of 8
   /// children per inner entry); empty once the map is compacted.
   std::vector<std::uint32_t> level_offsets;
+  /// References of the top grid (one per top cell a triangle overlaps), kept for statistics.
+  std::uint32_t top_level_refs = 0;
 };
 
 /// Concatenates per-level buffers into one of `total` elements.

@@ -25,8 +25,9 @@ inline const char* grid_shape_name(BuildConfig::Shape shape) {
 
 /// Fills the counts, bytes per array and total bytes of `out` from a built grid's scalars;
 /// empty_radii_bytes is the size of its empty radii (0 without them).
-inline void record_grid_statistics(const GridInfo& g, bool compressed,
+inline void record_grid_statistics(const GridInfo& g, std::uint32_t top_level_refs, bool compressed,
                                    std::uint64_t empty_radii_bytes, BuildInfo& out) {
+  out.counts["top_level_references"] = top_level_refs;
   out.counts["cells"] = g.num_cells;
   out.counts["references"] = g.num_refs;
   out.counts["entries"] = g.num_entries;

@@ -118,7 +118,7 @@ inline void check_octree_memory(std::uint64_t memory_bytes, std::uint64_t entrie
         return "octrees: " + std::to_string(cells) + " cells, " + std::to_string(entries) +
                " map entries and " + std::to_string(refs) + " references so far; the build";
       },
-      "lower lambda2");
+      "lower lambda2 or min_cells");
 }
 
 /// Number of set bits of an 8-bit mask, without a library call (x86-64 without -mpopcnt turns
@@ -236,9 +236,10 @@ LevelPlan<Exec> plan_level(Exec& exec, const GridInfo& info, const TriangleVerti
   });
   const std::uint64_t children = wide_sum(exec, "level children", child_base, n);
   if (children > kMaxEntryTarget)
-    throw Error(ErrorCode::limit_exceeded,
-                "voxel map: " + std::to_string(children) +
-                    " octree nodes exceed the limit of 2^30 - 1 entries (lower lambda2)");
+    throw Error(
+        ErrorCode::limit_exceeded,
+        "voxel map: " + std::to_string(children) +
+            " octree nodes exceed the limit of 2^30 - 1 entries (lower lambda2 or min_cells)");
   plan.children = exec.exclusive_scan("level children", child_base, child_base, n);
   plan.leaves = exec.exclusive_scan("level leaves", leaf_index, leaf_index, n);
   return plan;

@@ -81,7 +81,7 @@ inline void check_entry_count(std::uint64_t count) {
   if (count > kMaxEntryTarget)
     throw Error(ErrorCode::limit_exceeded,
                 "voxel map: " + std::to_string(count) +
-                    " entries exceed the limit of 2^30 - 1 (lower lambda2)");
+                    " entries exceed the limit of 2^30 - 1 (lower lambda2 or min_cells)");
 }
 
 /// Emits the (top cell, triangle) pairs, triangle-major (so each cell's triangles ascend).
