@@ -132,6 +132,34 @@ TEST_F(Cli, UnwritableJsonIsExitTwoBeforeLoading) {
   }
 }
 
+TEST_F(Cli, UnwritableOutputsAndEmptyImagesAreExitTwoBeforeLoading) {
+  const std::string missing = (dir / "no-such-folder" / "out").string();
+  const auto rays = (dir / "cube.rays").string();
+  ASSERT_EQ(run("rays builtin:cube -o " + rays + " -w 8 -h 8").code, 0);
+  for (const std::string command :
+       {"render builtin:cube -o " + missing, "rays builtin:cube -o " + missing,
+        "trace builtin:cube --rays " + rays + " -o " + missing}) {
+    const Result r = run(command);
+    EXPECT_EQ(r.code, 2) << command;
+    EXPECT_NE(r.err.find(missing + ": cannot create"), std::string::npos) << command << r.err;
+    EXPECT_EQ(r.err.find("loaded"), std::string::npos) << command << ": the scene was loaded first";
+  }
+  for (const char* command :
+       {"bench builtin:cube --width 0", "bench builtin:cube --height -3",
+        "rays builtin:cube -o x.rays -w 0", "render builtin:cube -o x.png -h 0"}) {
+    const Result r = run(command);
+    EXPECT_EQ(r.code, 2) << command;
+    EXPECT_EQ(r.err.find("loaded"), std::string::npos) << command << ": the scene was loaded first";
+  }
+}
+
+TEST_F(Cli, AFailedCommandLeavesNoEmptyOutputBehind) {
+  const auto json = dir / "never.json";
+  fs::remove(json);
+  EXPECT_EQ(run("build " + (dir / "missing.obj").string() + " --json " + json.string()).code, 2);
+  EXPECT_FALSE(fs::exists(json));
+}
+
 TEST_F(Cli, BuildPrintsPhasesInTheOrderTheyRun) {
   const Result r = run("build builtin:cornell");
   ASSERT_EQ(r.code, 0) << r.err;

@@ -251,8 +251,11 @@ void add_bench_command(CLI::App& app) {
   cmd->add_option("--views", o->views, "View indices, comma-separated (default: all)");
   cmd->add_option("--views-file", o->views_file, "views.json to take the cameras from");
   cmd->add_option("--spp", o->config.spp, "Secondary rays per primary hit")->capture_default_str();
-  cmd->add_option("--width", o->config.width, "Image width of primary rays")->capture_default_str();
+  cmd->add_option("--width", o->config.width, "Image width of primary rays")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   cmd->add_option("--height", o->config.height, "Image height of primary rays")
+      ->check(CLI::PositiveNumber)
       ->capture_default_str();
   cmd->add_option("--count", o->config.count, "Random rays (default: width x height)");
   cmd->add_option("--seed", o->config.seed, "Random seed")->capture_default_str();

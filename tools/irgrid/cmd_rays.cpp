@@ -18,6 +18,7 @@ struct RaysOptions {
 void run_rays(const RaysOptions& o) {
   const RayKind kind = parse_ray_kind(o.kind);
   const RayFormat format = parse_ray_format(o.format);
+  check_writable(o.output);
   const Scene scene = load_scene_reporting(o.scene);
   const Camera camera = pick_view(scene, o.view, o.views_file);
   std::unique_ptr<Accelerator> tracer;
@@ -43,8 +44,12 @@ void add_rays_command(CLI::App& app) {
   cmd->add_option("--spp", o->config.spp, "Secondary rays per primary hit (ao, diffuse)")
       ->capture_default_str();
   cmd->add_option("--count", o->config.count, "Number of random rays")->capture_default_str();
-  cmd->add_option("-w,--width", o->config.width, "Image width")->capture_default_str();
-  cmd->add_option("-h,--height", o->config.height, "Image height")->capture_default_str();
+  cmd->add_option("-w,--width", o->config.width, "Image width")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("-h,--height", o->config.height, "Image height")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   cmd->add_option("--seed", o->config.seed, "Random seed")->capture_default_str();
   cmd->add_option("-o,--output", o->output, "Ray file to write")->required();
   cmd->add_option("--format", o->format, "irgrid (32 B/ray) or hagrid (24 B/ray)")

@@ -129,6 +129,7 @@ void run_render(const RenderOptions& o) {
   if (std::find(modes.begin(), modes.end(), o.mode) == modes.end())
     throw Error(ErrorCode::invalid_argument,
                 fmt::format("--mode '{}': expected shaded, normal, primid, ao or heatmap", o.mode));
+  check_writable(o.output);
   const Scene scene = load_scene_reporting(o.scene);
   const Camera camera = choose_camera(scene, o);
   const auto tracer = build_reporting(scene, o.structure);
@@ -173,8 +174,12 @@ void add_render_command(CLI::App& app) {
   auto* fov = cmd->add_option("--fov", o->fov,
                               "Vertical field of view in degrees, in (0, 180) (default: the "
                               "view's; 60 with --eye)");
-  cmd->add_option("-w,--width", o->width, "Image width")->capture_default_str();
-  cmd->add_option("-h,--height", o->height, "Image height")->capture_default_str();
+  cmd->add_option("-w,--width", o->width, "Image width")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("-h,--height", o->height, "Image height")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   cmd->add_option("--mode", o->mode, "shaded, normal, primid, ao or heatmap")
       ->capture_default_str();
   cmd->add_option("--spp", o->spp, "Ambient-occlusion rays per pixel (mode ao)")

@@ -38,6 +38,7 @@ void run_trace(const TraceOptions& o) {
     throw Error(ErrorCode::invalid_argument,
                 fmt::format("--tmin {} and --tmax {} leave no interval to hit in",
                             o.tmin.value_or(0.f), o.tmax.value_or(inf)));
+  check_writable(o.output);
   auto rays = read_rays(o.rays_file, format, o.tmin.value_or(0.f), o.tmax.value_or(inf));
   if (format == RayFormat::irgrid && (o.tmin || o.tmax))
     for (Ray& ray : rays)

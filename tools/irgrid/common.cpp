@@ -3,6 +3,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 
 #include <fmt/format.h>
@@ -19,8 +20,12 @@ double milliseconds_since(std::chrono::steady_clock::time_point start) {
 }
 
 void check_writable(const std::string& path) {
-  std::ofstream file(path, std::ios::app);
-  if (!file) throw Error(ErrorCode::io, fmt::format("{}: cannot create", path));
+  std::error_code ignored;
+  const bool existed = std::filesystem::exists(path, ignored);
+  if (!std::ofstream(path, std::ios::app))
+    throw Error(ErrorCode::io, fmt::format("{}: cannot create", path));
+  // A failed command should not leave an empty file behind.
+  if (!existed) std::filesystem::remove(path, ignored);
 }
 
 Scene load_scene_reporting(const std::string& spec) {

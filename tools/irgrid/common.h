@@ -46,8 +46,9 @@ Camera pick_view(const Scene& scene, int index, const std::string& views_file);
 
 double milliseconds_since(std::chrono::steady_clock::time_point start);
 
-/// Throws Error{io} naming `path` unless it can be written (it is created, empty, if missing):
-/// called before long work whose results go there, so a bad path is not found only at the end.
+/// Throws Error{io} naming `path` unless it can be written (a missing file is created to try,
+/// then removed): called before long work whose results go there, so a bad path is not found
+/// only at the end.
 void check_writable(const std::string& path);
 
 }  // namespace irgrid::cli
