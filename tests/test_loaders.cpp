@@ -176,6 +176,22 @@ TEST_F(LoaderTest, ObjOutOfRangeIndicesAreDroppedNotFatal) {
   EXPECT_EQ(scene.triangles, (std::vector<Triangle>{{0, 1, 2}}));
   EXPECT_EQ(scene.input_ids, (std::vector<std::uint32_t>{0}));
   EXPECT_TRUE(has_warning(scene, "dropped 3 triangles with an out-of-range vertex index"));
+  EXPECT_TRUE(has_warning(scene, "line 7: vertex index 99 is past the file's 5 vertices"));
+}
+
+TEST_F(LoaderTest, ObjNamesTheFirstOutOfRangeReference) {
+  // A relative index before its vertex is out of range where it stands.
+  const Scene relative = load("relative.obj", "v 0 0 0\nv 1 0 0\nf -1 -2 -3\nv 0 1 0\nf 1 2 9\n");
+  EXPECT_TRUE(has_warning(
+      relative, "line 3: vertex index -3 reaches before the first vertex (2 precede it)"));
+  // An absolute index past the vertices read so far is fine when the file defines them later.
+  const Scene forward =
+      load("forward.obj", "f 1 2 3\nf 1 2 5\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 9\n");
+  EXPECT_EQ(forward.report.dropped_bad_index, 2u);
+  EXPECT_TRUE(has_warning(forward, "line 2: vertex index 5 is past the file's 4 vertices"));
+  const Scene fine = load("fine.obj", "f 1 2 3\nv 0 0 0\nv 1 0 0\nv 0 1 0\n");
+  EXPECT_EQ(fine.report.dropped_bad_index, 0u);
+  EXPECT_TRUE(fine.report.warnings.empty()) << fine.report.warnings[0];
 }
 
 TEST_F(LoaderTest, ObjNonFiniteCoordinatesAreDropped) {
@@ -440,6 +456,8 @@ TEST_F(LoaderTest, PlyNegativeAndOutOfRangeIndicesAreDropped) {
   EXPECT_EQ(scene.report.triangles_read, 3u);
   EXPECT_EQ(scene.report.dropped_bad_index, 2u);
   EXPECT_EQ(scene.input_ids, (std::vector<std::uint32_t>{2}));
+  EXPECT_TRUE(has_warning(
+      scene, "face 0 (counting from 0): vertex index -1 is not below the file's 3 vertices"));
 }
 
 TEST_F(LoaderTest, PlyTruncatedBinaryNamesPathAndElement) {

@@ -52,6 +52,13 @@ struct ObjSummary {
   std::uint64_t first_unknown_line = 0;
   std::vector<std::pair<std::uint64_t, Vec3f>> nonfinite_vertices;  // (vertex, position)
   std::vector<std::pair<std::uint64_t, std::uint64_t>> big_faces;   // (face, vertex count >255)
+  // Out-of-range vertex references (line, index as written): a relative one before its vertex
+  // is out of range at once; an absolute one past the vertices read so far only if the file
+  // never defines that many, so those are kept while each exceeds every earlier one (the first
+  // past the final count is then among them).
+  std::uint64_t first_bad_relative_line = 0;
+  std::string first_bad_relative;  // the index and the vertices before it
+  std::vector<std::pair<std::uint64_t, std::int64_t>> forward_references;
 };
 
 // Splits text into lines the way tinyobjloader does: "\n", "\r\n" or a lone "\r".
@@ -105,7 +112,8 @@ class ObjPrescan {
   double parse_coordinate(std::string_view token) const;
   void scan_vertex(std::string_view rest);
   std::int64_t parse_index(std::string_view text, std::string_view token) const;
-  void check_vertex_ref(std::string_view token) const;
+  std::int64_t check_vertex_ref(std::string_view token) const;
+  void note_vertex_index(std::int64_t index);
   void scan_face(std::string_view rest);
   void note_unknown(std::string_view keyword);
 
@@ -163,24 +171,41 @@ std::int64_t ObjPrescan::parse_index(std::string_view text, std::string_view tok
   return value;
 }
 
-// Accepts v, v/vt, v/vt/vn and v//vn.
-void ObjPrescan::check_vertex_ref(std::string_view token) const {
+// Accepts v, v/vt, v/vt/vn and v//vn; returns the vertex index.
+std::int64_t ObjPrescan::check_vertex_ref(std::string_view token) const {
   std::string_view rest = token;
+  std::int64_t vertex = 0;
   for (int part = 0; part < 3; ++part) {
     const auto slash = rest.find('/');
     const auto field = rest.substr(0, slash);
     const bool optional_empty = part == 1 && field.empty() && slash != std::string_view::npos;
-    if (!optional_empty) parse_index(field, token);
-    if (slash == std::string_view::npos) return;
+    if (!optional_empty) {
+      const std::int64_t index = parse_index(field, token);
+      if (part == 0) vertex = index;
+    }
+    if (slash == std::string_view::npos) return vertex;
     rest.remove_prefix(slash + 1);
   }
   fail("malformed face vertex", token);
 }
 
+void ObjPrescan::note_vertex_index(std::int64_t index) {
+  const auto read = std::int64_t(summary_.vertices);
+  if (index < 0 && index + read < 0 && summary_.first_bad_relative_line == 0) {
+    summary_.first_bad_relative_line = line_;
+    summary_.first_bad_relative = "vertex index " + std::to_string(index) +
+                                  " reaches before the first vertex (" + std::to_string(read) +
+                                  " precede it)";
+  }
+  auto& forward = summary_.forward_references;
+  if (index > read && (forward.empty() || index > forward.back().second))
+    forward.emplace_back(line_, index);
+}
+
 void ObjPrescan::scan_face(std::string_view rest) {
   std::uint64_t count = 0;
   for (auto token = next_token(rest); !token.empty(); token = next_token(rest)) {
-    check_vertex_ref(token);
+    note_vertex_index(check_vertex_ref(token));
     ++count;
   }
   if (count < 3) {
@@ -304,8 +329,26 @@ void copy_triangles(const std::string& path, const ObjSummary& summary,
   if (face != summary.faces) throw_mismatch(path, "faces", summary.faces, face);
 }
 
+// The first out-of-range vertex reference, as "line L: what is wrong"; empty when none is.
+std::string first_bad_vertex_reference(const ObjSummary& summary) {
+  std::uint64_t line = summary.first_bad_relative_line;
+  std::string what = summary.first_bad_relative;
+  for (const auto& [forward_line, index] : summary.forward_references)
+    if (index > std::int64_t(summary.vertices)) {
+      if (line == 0 || forward_line < line) {
+        line = forward_line;
+        what = "vertex index " + std::to_string(index) + " is past the file's " +
+               std::to_string(summary.vertices) + " vertices";
+      }
+      break;
+    }
+  return line == 0 ? std::string() : "line " + std::to_string(line) + ": " + what;
+}
+
 void add_summary_warnings(const std::string& path, const ObjSummary& summary, Scene& scene) {
   auto& report = scene.report;
+  if (const auto first = first_bad_vertex_reference(summary); !first.empty())
+    report.warnings.push_back(path + ": " + first);
   if (summary.short_faces > 0)
     report.warnings.push_back(path + ": skipped " + std::to_string(summary.short_faces) +
                               " faces with fewer than 3 vertices (first at line " +

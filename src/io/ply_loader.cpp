@@ -357,6 +357,11 @@ class PlyBodyReader {
   template <typename Cursor>
   void read(const PlyHeader& header, Cursor& cursor, ReadContext& context);
   std::uint64_t short_faces = 0;
+  /// The first face record (counting from 0) with an out-of-range vertex index, that index, and
+  /// the vertex count the header declares; first_bad_face is -1 when every index is in range.
+  std::int64_t first_bad_face = -1;
+  double first_bad_index = 0;
+  std::uint64_t declared_vertices = 0;
 
  private:
   template <typename Cursor>
@@ -467,6 +472,8 @@ void PlyBodyReader::read_faces(const PlyElement& element, Cursor& cursor, ReadCo
       face.clear();
       for (std::uint64_t i = 0; i < count; ++i) {
         const double index = cursor.number(property.type);
+        if (!(index >= 0 && index < double(declared_vertices)) && first_bad_face < 0)
+          first_bad_face = std::int64_t(context.record), first_bad_index = index;
         // Negative or too large: an out-of-range value that drop_invalid_triangles counts.
         face.push_back(index >= 0 && index <= double(kMaxCount) ? std::uint32_t(index)
                                                                 : kInvalidIndex);
@@ -479,6 +486,11 @@ void PlyBodyReader::read_faces(const PlyElement& element, Cursor& cursor, ReadCo
 template <typename Cursor>
 void PlyBodyReader::read(const PlyHeader& header, Cursor& cursor, ReadContext& context) {
   bool have_vertices = false, have_faces = false;
+  for (const auto& element : header.elements)
+    if (element.name == "vertex") {
+      declared_vertices = element.count;
+      break;
+    }
   for (const auto& element : header.elements) {
     context.element = &element;
     if (element.name == "vertex" && !have_vertices) {
@@ -493,6 +505,13 @@ void PlyBodyReader::read(const PlyHeader& header, Cursor& cursor, ReadContext& c
   }
   if (!have_vertices) throw Error(ErrorCode::io, path_ + ": PLY file has no vertex element");
   if (!have_faces) scene_.report.warnings.push_back(path_ + ": PLY file has no face element");
+}
+
+// An index as the file wrote it: whole numbers in full, others (float lists) as %.7g.
+std::string index_text(double index) {
+  return index == std::floor(index) && std::fabs(index) < 0x1p53
+             ? std::to_string(std::int64_t(index))
+             : number_text(index);
 }
 
 }  // namespace
@@ -518,6 +537,11 @@ Scene load_ply_file(const std::string& path) {
   if (reader.short_faces > 0)
     scene.report.warnings.push_back(path + ": skipped " + std::to_string(reader.short_faces) +
                                     " faces with fewer than 3 vertices");
+  if (reader.first_bad_face >= 0)
+    scene.report.warnings.push_back(
+        path + ": face " + std::to_string(reader.first_bad_face) +
+        " (counting from 0): vertex index " + index_text(reader.first_bad_index) +
+        " is not below the file's " + std::to_string(reader.declared_vertices) + " vertices");
   return scene;
 }
 
