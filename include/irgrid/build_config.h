@@ -15,7 +15,7 @@ struct BuildConfig {
   /// Our rule for small scenes, not the paper's: λ2 aims the octrees at λ2 x (top-level
   /// references) cells in all; where that is fewer than min_cells, λ2 is raised until it is
   /// min_cells (effective_lambda2). A grid of that size builds in milliseconds, and its finer
-  /// cells trace small scenes up to twice as fast (docs/benchmarks.md). 0 keeps the paper's λ2.
+  /// cells trace small scenes up to 2.3 times as fast (docs/benchmarks.md). 0: the paper's λ2.
   unsigned min_cells = 32768;
   /// An octree node holding more than this many references splits further than its top cell's
   /// λ2 depth, down to the finest depth at which cells still compress to 16 bytes, while the
