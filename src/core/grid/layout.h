@@ -143,8 +143,9 @@ IRGRID_HD inline std::uint32_t lookup_cell(const GridInfo& info, const Entry* en
 template <std::uint32_t kMax>
 IRGRID_HD inline void lookup_cells(const GridInfo& info, const Entry* entries, const Voxel* voxels,
                                    std::uint32_t count, std::uint32_t* owners) {
-  Entry entry[kMax];
-  std::int32_t level_shift[kMax];
+  // Zeroed so that GCC, which cannot see count <= kMax, does not warn of uninitialised reads.
+  Entry entry[kMax] = {};
+  std::int32_t level_shift[kMax] = {};
   for (std::uint32_t k = 0; k < count; ++k) {
     entry[k] = entries[top_entry_index(info, voxels[k])];
     level_shift[k] = info.shift;
