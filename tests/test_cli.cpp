@@ -153,6 +153,19 @@ TEST_F(Cli, UnwritableOutputsAndEmptyImagesAreExitTwoBeforeLoading) {
   }
 }
 
+TEST_F(Cli, BadBenchRaysFailBeforeAnyBuild) {
+  const auto views = (dir / "broken-views.json").string();
+  std::ofstream(views) << "{\"x\": [";
+  const std::vector<std::string> commands = {
+      "bench builtin:cube --kinds primary,foo", "bench builtin:cube --views 3",
+      "bench builtin:cube --views-file " + views, "bench builtin:cube --spp 0"};
+  for (const auto& command : commands) {
+    const Result r = run(command);
+    EXPECT_EQ(r.code, 2) << command;
+    EXPECT_EQ(r.err.find("built irregular"), std::string::npos) << command << ": built first";
+  }
+}
+
 TEST_F(Cli, AFailedCommandLeavesNoEmptyOutputBehind) {
   const auto json = dir / "never.json";
   fs::remove(json);

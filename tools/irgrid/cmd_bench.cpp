@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <memory>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -173,21 +174,34 @@ const Accelerator& secondary_ray_source(const Scene& scene,
   return *built;
 }
 
+/// The cameras, views and ray kinds a bench of the standard rays traces, read before any
+/// structure is built so that a bad --kinds, --views or --views-file fails at once.
+struct StandardRays {
+  std::vector<Camera> cameras;
+  std::vector<int> views;
+  std::vector<RayKind> kinds;
+};
+
+StandardRays plan_standard_rays(const Scene& scene, const BenchOptions& o) {
+  StandardRays plan{scene_views(scene, o.views_file), {}, {}};
+  plan.views = chosen_views(o, plan.cameras.size());
+  for (const auto& name : split_list(o.kinds))
+    plan.kinds.push_back(parse_ray_kind(name));
+  return plan;
+}
+
 /// Every contender traces the same rays: secondary rays come from the primary hits of one fixed
 /// structure (secondary_ray_source).
 void run_standard_kinds(const Scene& scene, const ReferenceTracer* reference, const BenchOptions& o,
-                        std::vector<Contender>& contenders) {
-  const auto cameras = scene_views(scene, o.views_file);
-  std::vector<RayKind> kinds;
-  for (const auto& name : split_list(o.kinds))
-    kinds.push_back(parse_ray_kind(name));
+                        const StandardRays& plan, std::vector<Contender>& contenders) {
+  const auto& [cameras, views, kinds] = plan;
   std::unique_ptr<Accelerator> built;
   const bool secondary = std::any_of(kinds.begin(), kinds.end(), [](RayKind k) {
     return k == RayKind::ao || k == RayKind::diffuse;
   });
   const Accelerator* generator =
       secondary ? &secondary_ray_source(scene, contenders, built) : nullptr;
-  for (int view : chosen_views(o, cameras.size()))
+  for (int view : views)
     for (RayKind kind : kinds) {
       const auto rays = generate_rays(scene, cameras[std::size_t(view)], kind, o.config, generator);
       const Query query = kind == RayKind::ao ? Query::any : Query::closest;
@@ -204,6 +218,8 @@ int run_bench(BenchOptions o) {
     o.config.count = std::uint64_t(o.config.width) * std::uint64_t(o.config.height);
   if (!o.json.empty()) check_writable(o.json);
   const Scene scene = load_scene_reporting(o.scene);
+  std::optional<StandardRays> standard;
+  if (o.rays_file.empty()) standard = plan_standard_rays(scene, o);
   auto contenders = parse_contenders(o);
   for (auto& c : contenders)
     timed_build(scene, o.build_repeat, c);
@@ -216,7 +232,7 @@ int run_bench(BenchOptions o) {
       c.result.runs.push_back(measure(scene, reference.get(), *c.accelerator, rays,
                                       o.any_hit ? Query::any : Query::closest, o, {"file", 0}));
   } else {
-    run_standard_kinds(scene, reference.get(), o, contenders);
+    run_standard_kinds(scene, reference.get(), o, *standard, contenders);
   }
   std::vector<BenchResult> results;
   for (auto& c : contenders)
@@ -250,7 +266,9 @@ void add_bench_command(CLI::App& app) {
   cmd->add_option("--kinds", o->kinds, "Ray kinds, comma-separated")->capture_default_str();
   cmd->add_option("--views", o->views, "View indices, comma-separated (default: all)");
   cmd->add_option("--views-file", o->views_file, "views.json to take the cameras from");
-  cmd->add_option("--spp", o->config.spp, "Secondary rays per primary hit")->capture_default_str();
+  cmd->add_option("--spp", o->config.spp, "Secondary rays per primary hit")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1 << 16));
   cmd->add_option("--width", o->config.width, "Image width of primary rays")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);

@@ -183,7 +183,8 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("--mode", o->mode, "shaded, normal, primid, ao or heatmap")
       ->capture_default_str();
   cmd->add_option("--spp", o->spp, "Ambient-occlusion rays per pixel (mode ao)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1 << 16));
   add_structure_options(cmd, o->structure);
   cmd->callback([o, fov] {
     o->fov_given = fov->count() > 0;
