@@ -158,7 +158,8 @@ TEST_F(Cli, BadBenchRaysFailBeforeAnyBuild) {
   std::ofstream(views) << "{\"x\": [";
   const std::vector<std::string> commands = {
       "bench builtin:cube --kinds primary,foo", "bench builtin:cube --views 3",
-      "bench builtin:cube --views-file " + views, "bench builtin:cube --spp 0"};
+      "bench builtin:cube --views-file " + views, "bench builtin:cube --spp 0",
+      "bench builtin:cube --rays " + views};
   for (const auto& command : commands) {
     const Result r = run(command);
     EXPECT_EQ(r.code, 2) << command;

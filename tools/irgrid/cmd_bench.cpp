@@ -217,6 +217,10 @@ int run_bench(BenchOptions o) {
   if (o.config.count == 0)
     o.config.count = std::uint64_t(o.config.width) * std::uint64_t(o.config.height);
   if (!o.json.empty()) check_writable(o.json);
+  // A ray file is read, and the standard rays planned, before the builds, so that bad input
+  // fails at once.
+  std::vector<Ray> file_rays;
+  if (!o.rays_file.empty()) file_rays = read_rays(o.rays_file, parse_ray_format(o.format));
   const Scene scene = load_scene_reporting(o.scene);
   std::optional<StandardRays> standard;
   if (o.rays_file.empty()) standard = plan_standard_rays(scene, o);
@@ -227,9 +231,8 @@ int run_bench(BenchOptions o) {
   std::unique_ptr<ReferenceTracer> reference;
   if (o.validate > 0) reference = std::make_unique<ReferenceTracer>(scene);
   if (!o.rays_file.empty()) {
-    const auto rays = read_rays(o.rays_file, parse_ray_format(o.format));
     for (auto& c : contenders)
-      c.result.runs.push_back(measure(scene, reference.get(), *c.accelerator, rays,
+      c.result.runs.push_back(measure(scene, reference.get(), *c.accelerator, file_rays,
                                       o.any_hit ? Query::any : Query::closest, o, {"file", 0}));
   } else {
     run_standard_kinds(scene, reference.get(), o, *standard, contenders);
