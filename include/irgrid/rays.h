@@ -22,11 +22,14 @@ const char* to_string(RayKind kind) noexcept;
 /// Parses a kind name; throws Error{invalid_argument} naming the value.
 RayKind parse_ray_kind(const std::string& name);
 
+/// Most secondary rays per primary hit that secondary_rays accepts.
+inline constexpr int kMaxSamplesPerHit = 1 << 16;
+
 /// Parameters of ray generation. The same parameters always give the same rays.
 struct RayConfig {
-  int width = 1024;                ///< image width for primary-derived kinds
-  int height = 1024;               ///< image height
-  int spp = 4;                     ///< secondary rays per primary hit (ao, diffuse)
+  int width = 1024;   ///< image width for primary-derived kinds
+  int height = 1024;  ///< image height
+  int spp = 4;        ///< secondary rays per primary hit (ao, diffuse), 1..kMaxSamplesPerHit
   std::uint64_t count = 1u << 20;  ///< number of rays for `random`
   std::uint64_t seed = 0x1a2b3c4d;
 };

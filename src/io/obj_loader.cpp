@@ -57,7 +57,8 @@ struct ObjSummary {
   // never defines that many, so those are kept while each exceeds every earlier one (the first
   // past the final count is then among them).
   std::uint64_t first_bad_relative_line = 0;
-  std::string first_bad_relative;  // the index and the vertices before it
+  std::int64_t first_bad_relative_index = 0;
+  std::uint64_t first_bad_relative_preceding = 0;  // vertices before that line
   std::vector<std::pair<std::uint64_t, std::int64_t>> forward_references;
 };
 
@@ -193,9 +194,8 @@ void ObjPrescan::note_vertex_index(std::int64_t index) {
   const auto read = std::int64_t(summary_.vertices);
   if (index < 0 && index + read < 0 && summary_.first_bad_relative_line == 0) {
     summary_.first_bad_relative_line = line_;
-    summary_.first_bad_relative = "vertex index " + std::to_string(index) +
-                                  " reaches before the first vertex (" + std::to_string(read) +
-                                  " precede it)";
+    summary_.first_bad_relative_index = index;
+    summary_.first_bad_relative_preceding = summary_.vertices;
   }
   auto& forward = summary_.forward_references;
   if (index > read && (forward.empty() || index > forward.back().second))
@@ -332,7 +332,9 @@ void copy_triangles(const std::string& path, const ObjSummary& summary,
 // The first out-of-range vertex reference, as "line L: what is wrong"; empty when none is.
 std::string first_bad_vertex_reference(const ObjSummary& summary) {
   std::uint64_t line = summary.first_bad_relative_line;
-  std::string what = summary.first_bad_relative;
+  std::string what = "vertex index " + std::to_string(summary.first_bad_relative_index) +
+                     " reaches before the first vertex (" +
+                     std::to_string(summary.first_bad_relative_preceding) + " precede it)";
   for (const auto& [forward_line, index] : summary.forward_references)
     if (index > std::int64_t(summary.vertices)) {
       if (line == 0 || forward_line < line) {

@@ -106,8 +106,9 @@ std::vector<Ray> secondary_rays(const Scene& scene, std::span<const Ray> primary
                                 std::uint64_t seed) {
   if (kind != RayKind::ao && kind != RayKind::diffuse)
     throw Error(ErrorCode::invalid_argument, "secondary_rays: kind must be ao or diffuse");
-  if (spp <= 0 || spp > 1 << 16)
-    throw Error(ErrorCode::invalid_argument, fmt::format("spp {} is not in 1..65536", spp));
+  if (spp <= 0 || spp > kMaxSamplesPerHit)
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("spp {} is not in 1..{}", spp, kMaxSamplesPerHit));
   if (primary.size() != primary_hits.size())
     throw Error(ErrorCode::invalid_argument, "secondary_rays: one hit per primary ray expected");
   std::vector<std::size_t> hit_rays;

@@ -271,7 +271,7 @@ void add_bench_command(CLI::App& app) {
   cmd->add_option("--views-file", o->views_file, "views.json to take the cameras from");
   cmd->add_option("--spp", o->config.spp, "Secondary rays per primary hit")
       ->capture_default_str()
-      ->check(CLI::Range(1, 1 << 16));
+      ->check(CLI::Range(1, kMaxSamplesPerHit));
   cmd->add_option("--width", o->config.width, "Image width of primary rays")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);

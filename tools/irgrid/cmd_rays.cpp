@@ -43,7 +43,7 @@ void add_rays_command(CLI::App& app) {
   cmd->add_option("--views-file,--views", o->views_file, "views.json to take the cameras from");
   cmd->add_option("--spp", o->config.spp, "Secondary rays per primary hit (ao, diffuse)")
       ->capture_default_str()
-      ->check(CLI::Range(1, 1 << 16));
+      ->check(CLI::Range(1, kMaxSamplesPerHit));
   cmd->add_option("--count", o->config.count, "Number of random rays")->capture_default_str();
   cmd->add_option("-w,--width", o->config.width, "Image width")
       ->capture_default_str()

@@ -184,7 +184,7 @@ void add_render_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--spp", o->spp, "Ambient-occlusion rays per pixel (mode ao)")
       ->capture_default_str()
-      ->check(CLI::Range(1, 1 << 16));
+      ->check(CLI::Range(1, kMaxSamplesPerHit));
   add_structure_options(cmd, o->structure);
   cmd->callback([o, fov] {
     o->fov_given = fov->count() > 0;
