@@ -338,7 +338,34 @@ TEST_F(Cli, CompareRunsEveryStructureOnTheSameRays) {
       EXPECT_GE(result["runs"][0]["cells_per_ray"].get<double>(), 1.0);
       EXPECT_GT(result["runs"][0]["tests_per_ray"].get<double>(), 0.0);
     }
+    // The grid parameters go with the grids only; the λ2 used with the irregular grid only.
+    EXPECT_EQ(result.contains("config"), grid) << result["structure"];
+    EXPECT_EQ(result.contains("lambda2_used"), structure == "irregular") << structure;
   }
+  // Cornell is small enough for min_cells to raise the irregular grid's λ2.
+  EXPECT_GT(json["lambda2_used"].get<double>(), json["config"]["lambda2"].get<double>());
+}
+
+TEST_F(Cli, BenchJsonSaysHowTheRaysWereMade) {
+  const auto [r, json] = run_json(
+      "bench builtin:cornell --kinds primary,random --views 1 --width 12 --height 10 --count 77 "
+      "--seed 5 --spp 2 --repeat 2 --build-repeat 1 --validate 30 --lambda1 0.5",
+      "settings.json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto& settings = json["settings"];
+  EXPECT_EQ(settings["width"], 12);
+  EXPECT_EQ(settings["height"], 10);
+  EXPECT_EQ(settings["random_rays"], 77);
+  EXPECT_EQ(settings["seed"], 5);
+  EXPECT_EQ(settings["spp"], 2);
+  EXPECT_EQ(settings["kinds"], "primary,random");
+  EXPECT_EQ(settings["views"], "1");
+  EXPECT_EQ(settings["repeat"], 2);
+  EXPECT_EQ(settings["build_repeat"], 1);
+  EXPECT_EQ(settings["validate"], 30);
+  EXPECT_FLOAT_EQ(json["config"]["lambda1"].get<float>(), 0.5f);
+  ASSERT_EQ(json["runs"].size(), 2u);
+  EXPECT_EQ(json["runs"][1]["rays"], 77);
 }
 
 /// The mean, 99th percentile and largest work per ray that `render --mode heatmap` printed.

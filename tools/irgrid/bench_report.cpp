@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "config_json.h"
 #include "irgrid/error.h"
 #include "irgrid/system.h"
 
@@ -73,25 +74,43 @@ nlohmann::json result_json(const BenchResult& r) {
     }
     runs.push_back(std::move(entry));
   }
-  return {{"scene", r.scene},
-          {"triangles", r.triangles},
-          {"backend", r.backend},
-          {"structure", r.structure},
-          {"build_ms", r.build.build_ms},
-          {"build_phases_ms", r.build.phases_ms},
-          {"memory_bytes", r.build.memory_bytes},
-          {"memory_breakdown_bytes", r.build.bytes},
-          {"counts", r.build.counts},
-          {"runs", runs}};
+  nlohmann::json out = {{"scene", r.scene},
+                        {"triangles", r.triangles},
+                        {"backend", r.backend},
+                        {"structure", r.structure},
+                        {"build_ms", r.build.build_ms},
+                        {"build_phases_ms", r.build.phases_ms},
+                        {"memory_bytes", r.build.memory_bytes},
+                        {"memory_breakdown_bytes", r.build.bytes},
+                        {"counts", r.build.counts},
+                        {"runs", runs}};
+  if (r.grid) add_grid_config_json(out, r.structure, r.build, *r.grid);
+  return out;
+}
+
+nlohmann::json settings_json(const BenchSettings& s) {
+  return {{"width", s.rays.width},
+          {"height", s.rays.height},
+          {"spp", s.rays.spp},
+          {"random_rays", s.rays.count},
+          {"seed", s.rays.seed},
+          {"kinds", s.kinds},
+          {"views", s.views},
+          {"views_file", s.views_file},
+          {"rays_file", s.rays_file},
+          {"repeat", s.repeat},
+          {"build_repeat", s.build_repeat},
+          {"validate", s.validate}};
 }
 
 }  // namespace
 
 void write_bench_json(const std::vector<BenchResult>& results, const std::string& scene_file,
-                      const std::string& path) {
+                      const BenchSettings& settings, const std::string& path) {
   const auto machine = machine_info();
   nlohmann::json out = result_json(results.front());
   out["scene_file"] = scene_file;
+  out["settings"] = settings_json(settings);
   out["irgrid_version"] = version();
   out["machine"] = {{"cpu", machine.cpu_model},
                     {"threads", machine.tbb_threads},

@@ -2,10 +2,12 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "irgrid/accelerator.h"
+#include "irgrid/rays.h"
 
 namespace irgrid::cli {
 
@@ -25,8 +27,18 @@ struct BenchResult {
   std::string scene;
   std::uint64_t triangles = 0;
   std::string structure, backend;
-  BuildInfo build;  ///< build_ms is the median over the timed builds
+  BuildInfo build;                  ///< build_ms is the median over the timed builds
+  std::optional<BuildConfig> grid;  ///< the grid parameters, for the grid structures only
   std::vector<BenchRun> runs;
+};
+
+/// How `bench` made and timed its rays: the JSON's top-level `settings`, so that a result can
+/// be reproduced.
+struct BenchSettings {
+  RayConfig rays;  ///< width, height, spp, random rays and seed of the standard rays
+  std::string kinds, views, views_file, rays_file;
+  int repeat = 0, build_repeat = 0;
+  std::uint64_t validate = 0;
 };
 
 /// A table for people on stdout.
@@ -38,6 +50,6 @@ void print_comparison(const std::vector<BenchResult>& results);
 /// The stable JSON of docs/bench-json.md: the first result at the top level, and all of them
 /// under "compare" when there are several.
 void write_bench_json(const std::vector<BenchResult>& results, const std::string& scene_file,
-                      const std::string& path);
+                      const BenchSettings& settings, const std::string& path);
 
 }  // namespace irgrid::cli

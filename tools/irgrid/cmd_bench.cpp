@@ -96,7 +96,9 @@ void timed_build(const Scene& scene, int repeat, Contender& c) {
               c.accelerator->structure(),
               c.accelerator->backend(),
               c.accelerator->build_info(),
+              {},
               {}};
+  if (c.accelerator->counts_work()) c.result.grid = c.options.grid;
   c.result.build.build_ms = median(times);
   fmt::print(stderr, "built {} on {}: {:.1f} ms (median of {} builds)\n", c.result.structure,
              c.result.backend, c.result.build.build_ms, times.size());
@@ -243,7 +245,11 @@ int run_bench(BenchOptions o) {
   for (const auto& result : results)
     print_bench_table(result);
   if (results.size() > 1) print_comparison(results);
-  if (!o.json.empty()) write_bench_json(results, o.scene, o.json);
+  if (!o.json.empty())
+    write_bench_json(results, o.scene,
+                     {o.config, o.kinds, o.views, o.views_file, o.rays_file, o.repeat,
+                      o.build_repeat, o.validate},
+                     o.json);
   std::uint64_t mismatches = 0;
   for (const auto& result : results)
     for (const auto& run : result.runs)

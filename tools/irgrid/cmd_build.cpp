@@ -9,7 +9,7 @@
 
 #include "commands.h"
 #include "common.h"
-#include "irgrid/build_config.h"
+#include "config_json.h"
 #include "irgrid/error.h"
 
 namespace irgrid::cli {
@@ -35,22 +35,8 @@ nlohmann::json statistics_json(const Scene& scene, const std::string& scene_file
                                {"counts", info.counts},
                                {"memory_bytes", info.memory_bytes},
                                {"memory_breakdown_bytes", info.bytes},
-                               {"bytes_per_triangle", per_triangle},
-                               {"config",
-                                {{"lambda1", grid.lambda1},
-                                 {"lambda2", grid.lambda2},
-                                 {"min_cells", grid.min_cells},
-                                 {"split_refs", grid.split_refs},
-                                 {"alpha", grid.alpha},
-                                 {"cost_ratio", grid.cost_ratio},
-                                 {"empty_aspect", grid.empty_aspect},
-                                 {"expansion_passes", grid.expansion_passes},
-                                 {"partial_expansion", grid.partial_expansion},
-                                 {"skip_empty", grid.skip_empty},
-                                 {"compress", grid.compress}}}};
-  const auto refs = info.counts.find("top_level_references");
-  if (accelerator.structure() == "irregular" && refs != info.counts.end())
-    statistics["lambda2_used"] = effective_lambda2(grid, refs->second);
+                               {"bytes_per_triangle", per_triangle}};
+  add_grid_config_json(statistics, accelerator.structure(), info, grid);
   return statistics;
 }
 
