@@ -73,6 +73,19 @@ TEST_F(Cli, InfoPrintsVersionBackendsAndBuiltinScenes) {
   EXPECT_NE(r.out.find("builtin:hairball"), std::string::npos);
 }
 
+TEST_F(Cli, InfoNamesTheCpuWalk) {
+  const auto chosen = run("info --json");
+  ASSERT_EQ(chosen.code, 0) << chosen.err;
+  const auto walk = nlohmann::json::parse(chosen.out)["cpu_walk"].get<std::string>();
+  EXPECT_TRUE(walk == "avx512" || walk == "avx2" || walk == "scalar") << walk;
+  EXPECT_NE(run("info").out.find("cpu walk:   " + walk), std::string::npos);
+  ::setenv("IRGRID_CPU_WALK", "single", 1);
+  const auto forced = run("info --json");
+  ::unsetenv("IRGRID_CPU_WALK");
+  ASSERT_EQ(forced.code, 0) << forced.err;
+  EXPECT_EQ(nlohmann::json::parse(forced.out)["cpu_walk"], "single");
+}
+
 TEST_F(Cli, InfoOnASceneReportsItsTriangles) {
   const auto r = run("info builtin:cube --json");
   ASSERT_EQ(r.code, 0) << r.err;
@@ -364,6 +377,7 @@ TEST_F(Cli, BenchJsonSaysHowTheRaysWereMade) {
   EXPECT_EQ(settings["build_repeat"], 1);
   EXPECT_EQ(settings["validate"], 30);
   EXPECT_FLOAT_EQ(json["config"]["lambda1"].get<float>(), 0.5f);
+  EXPECT_FALSE(json["machine"]["cpu_walk"].get<std::string>().empty());
   ASSERT_EQ(json["runs"].size(), 2u);
   EXPECT_EQ(json["runs"][1]["rays"], 77);
 }

@@ -35,6 +35,15 @@ struct MachineInfo {
   int hardware_threads = 0;  ///< std::thread::hardware_concurrency()
   int tbb_threads = 0;       ///< threads oneTBB uses in this process
   std::string gpu;           ///< name of the first GPU, empty when none
+  /// How the CPU backend walks rays through grids (those that fit its 32-bit gathers):
+  /// "avx512" (16 lanes), "avx2" (8 lanes), "single" or "interleaved" (IRGRID_CPU_WALK),
+  /// or "scalar" (one ray at a time or interleaved, by the rays' coherence, on CPUs without AVX2).
+  std::string cpu_walk;
+  /// The Linux kernel's state of Intel's Gather Data Sampling mitigation (CVE-2022-40982), as
+  /// /sys/devices/system/cpu/vulnerabilities/gather_data_sampling words it; empty where that
+  /// file is missing. Where it begins "Mitigation", gather instructions, on which the SIMD walks
+  /// rely, run slower.
+  std::string gather_data_sampling;
 };
 MachineInfo machine_info();
 

@@ -8,6 +8,7 @@
 #include <tbb/info.h>
 #include <tbb/task_arena.h>
 
+#include "cpu/walk_policy.h"
 #include "irgrid/system.h"
 
 namespace irgrid {
@@ -31,6 +32,13 @@ std::string cpu_model_name() {
   return "unknown CPU";
 }
 
+std::string first_line(const char* path) {
+  std::ifstream file(path);
+  std::string line;
+  std::getline(file, line);
+  return line;
+}
+
 }  // namespace
 
 MachineInfo machine_info() {
@@ -43,6 +51,9 @@ MachineInfo machine_info() {
       tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)));
   const auto cuda = cuda_status();
   if (!cuda.gpus.empty()) info.gpu = cuda.gpus.front().name;
+  info.cpu_walk = cpu_walk_name();
+  info.gather_data_sampling =
+      first_line("/sys/devices/system/cpu/vulnerabilities/gather_data_sampling");
   return info;
 }
 

@@ -90,6 +90,24 @@ inline CpuWalk cpu_walk_choice() {
   return choice;
 }
 
+/// The walk trace_chunk takes for grids that fit the SIMD walk (MachineInfo::cpu_walk).
+inline const char* cpu_walk_name() {
+  switch (cpu_walk_choice()) {
+    case CpuWalk::simd:
+    case CpuWalk::avx512:
+      if (cpu_has(SimdIsa::avx512)) return "avx512";
+      [[fallthrough]];
+    case CpuWalk::avx2:
+      if (cpu_has(SimdIsa::avx2)) return "avx2";
+      return "scalar";
+    case CpuWalk::one_by_one:
+      return "single";
+    case CpuWalk::interleaved:
+      return "interleaved";
+  }
+  return "scalar";
+}
+
 /// Traces rays[i] into hits[i] one ray at a time (work[i] too when work is not empty).
 template <Query kQuery, typename CellT>
 void trace_one_by_one(const GridView& grid, std::span<const Ray> rays, std::span<Hit> hits,

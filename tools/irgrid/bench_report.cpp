@@ -20,8 +20,8 @@ void print_bench_table(const BenchResult& r) {
       r.scene, r.triangles, r.structure, r.backend, r.build.build_ms,
       r.build.memory_bytes / 1048576.0,
       r.triangles ? double(r.build.memory_bytes) / double(r.triangles) : 0.0);
-  fmt::print("machine: {}, {} threads{}\n", machine.cpu_model, machine.tbb_threads,
-             machine.gpu.empty() ? "" : ", GPU " + machine.gpu);
+  fmt::print("machine: {}, {} threads, {} walk{}\n", machine.cpu_model, machine.tbb_threads,
+             machine.cpu_walk, machine.gpu.empty() ? "" : ", GPU " + machine.gpu);
   fmt::print("{:>4}  {:<8} {:>10} {:>10} {:>10} {:>10} {:>9} {:>10} {:>11} {:>11}\n", "view",
              "kind", "rays", "hits", "ms", "MRays/s", "checked", "mismatches", "cells/ray",
              "tests/ray");
@@ -114,6 +114,7 @@ void write_bench_json(const std::vector<BenchResult>& results, const std::string
   out["irgrid_version"] = version();
   out["machine"] = {{"cpu", machine.cpu_model},
                     {"threads", machine.tbb_threads},
+                    {"cpu_walk", machine.cpu_walk},
                     {"gpu", machine.gpu.empty() ? nlohmann::json() : nlohmann::json(machine.gpu)}};
   if (results.size() > 1) {
     out["compare"] = nlohmann::json::array();

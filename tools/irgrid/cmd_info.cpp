@@ -36,7 +36,9 @@ nlohmann::json system_json() {
           {"gpus", gpus},
           {"cpu", machine.cpu_model},
           {"hardware_threads", machine.hardware_threads},
-          {"threads", machine.tbb_threads}};
+          {"threads", machine.tbb_threads},
+          {"cpu_walk", machine.cpu_walk},
+          {"gather_data_sampling", machine.gather_data_sampling}};
 }
 
 nlohmann::json scene_json(const Scene& scene) {
@@ -63,6 +65,14 @@ void print_system(const nlohmann::json& s) {
   fmt::print("structures: {}\n", fmt::join(s["structures"].get<std::vector<std::string>>(), ", "));
   fmt::print("cpu:        {} ({} hardware threads, {} used)\n", s["cpu"].get<std::string>(),
              s["hardware_threads"].get<int>(), s["threads"].get<int>());
+  fmt::print("cpu walk:   {} (IRGRID_CPU_WALK=avx512|avx2|single|interleaved picks another)\n",
+             s["cpu_walk"].get<std::string>());
+  const auto gather = s["gather_data_sampling"].get<std::string>();
+  if (gather.rfind("Mitigation", 0) == 0)
+    fmt::print(
+        "note:       gather data sampling: {}. The kernel slows the gather instructions the SIMD "
+        "walks rely on; on this CPU compare IRGRID_CPU_WALK=single with the default\n",
+        gather);
   fmt::print("cuda:       {}\n", s["cuda_status"].get<std::string>());
   for (const auto& gpu : s["gpus"])
     fmt::print("gpu {}:      {}, {:.1f} GiB ({:.1f} GiB free), compute capability {}, {} SMs\n",
