@@ -20,8 +20,11 @@ void print_bench_table(const BenchResult& r) {
       r.scene, r.triangles, r.structure, r.backend, r.build.build_ms,
       r.build.memory_bytes / 1048576.0,
       r.triangles ? double(r.build.memory_bytes) / double(r.triangles) : 0.0);
-  fmt::print("machine: {}, {} threads, {} walk{}\n", machine.cpu_model, machine.tbb_threads,
-             machine.cpu_walk, machine.gpu.empty() ? "" : ", GPU " + machine.gpu);
+  // The walk matters only to the CPU grids' runs.
+  const bool cpu_grid = r.backend == "cpu" && r.grid;
+  fmt::print("machine: {}, {} threads{}{}\n", machine.cpu_model, machine.tbb_threads,
+             cpu_grid ? ", " + machine.cpu_walk + " walk" : "",
+             machine.gpu.empty() ? "" : ", GPU " + machine.gpu);
   fmt::print("{:>4}  {:<8} {:>10} {:>10} {:>10} {:>10} {:>9} {:>10} {:>11} {:>11}\n", "view",
              "kind", "rays", "hits", "ms", "MRays/s", "checked", "mismatches", "cells/ray",
              "tests/ray");
