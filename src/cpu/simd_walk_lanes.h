@@ -293,7 +293,11 @@ struct LaneWalk {
         append_row(l, refs + j, count - j < L ? count - j : L, ordinal0 + j);
     }
   };
-  static_assert(TestList::kCapacity >= L * L, "L cells of at most L references each fit the list");
+  /// The most references a cell may have for a round to list its tests in one go: L cells of
+  /// this many fill the list (L references with AVX-512; 2 L with AVX2, whose 8 lanes would
+  /// otherwise send every cell of 9 to 16 references down the slower path).
+  static constexpr int kCellRefsInOneGo = TestList::kCapacity / L;
+  static_assert(kCellRefsInOneGo >= L, "L cells of at most L references each fit the list");
 
   /// What the lane-wise triangle test found for a batch of tests, bit p for test first + p.
   struct alignas(64) BatchHits {
@@ -598,9 +602,9 @@ struct LaneWalk {
     const auto list_tests = [&](Group& group, I cell_refs) {
       const LaneCells& c = group.c;
       TestList& list = group.list;
-      if (!V::any(V::greater(cell_refs, V::splat(L)))) {
-        // The usual round: every cell has at most L references, and all fit the list (L rows
-        // of L). One row per lane whose cell has references (most cells a ray crosses are
+      if (!V::any(V::greater(cell_refs, V::splat(kCellRefsInOneGo)))) {
+        // The usual round: every cell has at most kCellRefsInOneGo references, and all fit the
+        // list. The rows of each lane whose cell has references (most cells a ray crosses are
         // empty: skipping their rows beat writing every row without branches on Crown and
         // Conference), then the triangles of every listed test (slots past the size hold
         // earlier, valid ids).
@@ -609,7 +613,10 @@ struct LaneWalk {
         for (std::uint32_t bits = V::bits(V::greater(cell_refs, V::splat(0))); bits != 0;
              bits &= bits - 1) {
           const int l = __builtin_ctz(bits);
-          list.append_row(l, grid.refs + c.begin[l], count[l], 0);
+          if constexpr (kCellRefsInOneGo == L)
+            list.append_row(l, grid.refs + c.begin[l], count[l], 0);
+          else
+            list.append(l, grid.refs + c.begin[l], count[l], 0);
         }
         for (int row = 0; row < list.size; row += L) {
 #pragma GCC unroll 16
