@@ -20,6 +20,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <optional>
 #include <span>
 #include <tuple>
 
@@ -90,22 +91,22 @@ inline CpuWalk cpu_walk_choice() {
   return choice;
 }
 
+/// The instruction set `walk` runs its SIMD lanes in on this CPU (for grids that fit the SIMD
+/// walk); none where it walks one ray at a time or interleaved.
+inline std::optional<SimdIsa> simd_isa_of(CpuWalk walk) {
+  if (walk == CpuWalk::one_by_one || walk == CpuWalk::interleaved) return std::nullopt;
+  if (walk != CpuWalk::avx2 && cpu_has(SimdIsa::avx512)) return SimdIsa::avx512;
+  if (cpu_has(SimdIsa::avx2)) return SimdIsa::avx2;
+  return std::nullopt;
+}
+
 /// The walk trace_chunk takes for grids that fit the SIMD walk (MachineInfo::cpu_walk).
 inline const char* cpu_walk_name() {
-  switch (cpu_walk_choice()) {
-    case CpuWalk::simd:
-    case CpuWalk::avx512:
-      if (cpu_has(SimdIsa::avx512)) return "avx512";
-      [[fallthrough]];
-    case CpuWalk::avx2:
-      if (cpu_has(SimdIsa::avx2)) return "avx2";
-      return "scalar";
-    case CpuWalk::one_by_one:
-      return "single";
-    case CpuWalk::interleaved:
-      return "interleaved";
-  }
-  return "scalar";
+  const CpuWalk walk = cpu_walk_choice();
+  if (walk == CpuWalk::one_by_one) return "single";
+  if (walk == CpuWalk::interleaved) return "interleaved";
+  const auto isa = simd_isa_of(walk);
+  return !isa ? "scalar" : *isa == SimdIsa::avx512 ? "avx512" : "avx2";
 }
 
 /// Traces rays[i] into hits[i] one ray at a time (work[i] too when work is not empty).
@@ -128,22 +129,14 @@ void trace_one_by_one(const GridView& grid, std::span<const Ray> rays, std::span
 template <Query kQuery, typename CellT>
 void trace_chunk(const GridView& grid, std::size_t grid_bytes, std::span<const Ray> rays,
                  std::span<Hit> hits, std::span<RayWork> work) {
-  const bool simd_fits = simd_walk_fits(grid.info);
-  switch (cpu_walk_choice()) {
-    case CpuWalk::simd:
-    case CpuWalk::avx512:
-      if (simd_fits && cpu_has(SimdIsa::avx512))
-        return trace_simd_lanes<SimdIsa::avx512, kQuery, CellT>(grid, rays, hits, work);
-      [[fallthrough]];
-    case CpuWalk::avx2:
-      if (simd_fits && cpu_has(SimdIsa::avx2))
-        return trace_simd_lanes<SimdIsa::avx2, kQuery, CellT>(grid, rays, hits, work);
-      break;
-    case CpuWalk::one_by_one:
-      return trace_one_by_one<kQuery, CellT>(grid, rays, hits, work);
-    case CpuWalk::interleaved:
-      return trace_interleaved<kQuery, CellT>(grid, rays, hits, work);
-  }
+  const CpuWalk walk = cpu_walk_choice();
+  const auto isa = simd_walk_fits(grid.info) ? simd_isa_of(walk) : std::nullopt;
+  if (isa == SimdIsa::avx512)
+    return trace_simd_lanes<SimdIsa::avx512, kQuery, CellT>(grid, rays, hits, work);
+  if (isa == SimdIsa::avx2)
+    return trace_simd_lanes<SimdIsa::avx2, kQuery, CellT>(grid, rays, hits, work);
+  if (walk == CpuWalk::one_by_one) return trace_one_by_one<kQuery, CellT>(grid, rays, hits, work);
+  if (walk == CpuWalk::interleaved) return trace_interleaved<kQuery, CellT>(grid, rays, hits, work);
   if (grid_bytes <= kCoherentWalkMaxGridBytes && rays_are_coherent(grid.info, rays))
     trace_one_by_one<kQuery, CellT>(grid, rays, hits, work);
   else
