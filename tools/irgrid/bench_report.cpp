@@ -92,11 +92,11 @@ nlohmann::json result_json(const BenchResult& r) {
 }
 
 nlohmann::json settings_json(const BenchSettings& s) {
-  return {{"width", s.rays.width},
-          {"height", s.rays.height},
-          {"spp", s.rays.spp},
-          {"random_rays", s.rays.count},
-          {"seed", s.rays.seed},
+  return {{"width", s.config.width},
+          {"height", s.config.height},
+          {"spp", s.config.spp},
+          {"random_rays", s.config.count},
+          {"seed", s.config.seed},
           {"kinds", s.kinds},
           {"views", s.views},
           {"views_file", s.views_file},

@@ -35,10 +35,11 @@ struct BenchResult {
 /// How `bench` made and timed its rays: the JSON's top-level `settings`, so that a result can
 /// be reproduced.
 struct BenchSettings {
-  RayConfig rays;  ///< width, height, spp, random rays and seed of the standard rays
-  std::string kinds, views, views_file, rays_file;
-  int repeat = 0, build_repeat = 0;
-  std::uint64_t validate = 0;
+  RayConfig config;  ///< width, height, spp, random rays and seed of the standard rays
+  std::string kinds = "primary,ao,diffuse,random", views, views_file, rays_file;
+  int repeat = 5;
+  int build_repeat = -1;  ///< timed builds; below 0: as many as `repeat`
+  std::uint64_t validate = 10000;
 };
 
 /// A table for people on stdout.

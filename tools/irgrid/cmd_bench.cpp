@@ -20,15 +20,11 @@
 namespace irgrid::cli {
 namespace {
 
-struct BenchOptions {
-  std::string scene, kinds = "primary,ao,diffuse,random", views, views_file, rays_file,
-                     format = "irgrid", json, compare;
+/// The command line: the settings the JSON records, and the rest.
+struct BenchOptions : BenchSettings {
+  std::string scene, format = "irgrid", json, compare;
   StructureOptions structure;
-  int repeat = 5;
-  int build_repeat = -1;  // timed builds; below 0: as many as `repeat`
-  std::uint64_t validate = 10000;
   bool any_hit = false;
-  RayConfig config;
 };
 
 double median(std::vector<double> values) {
@@ -245,11 +241,7 @@ int run_bench(BenchOptions o) {
   for (const auto& result : results)
     print_bench_table(result);
   if (results.size() > 1) print_comparison(results);
-  if (!o.json.empty())
-    write_bench_json(results, o.scene,
-                     {o.config, o.kinds, o.views, o.views_file, o.rays_file, o.repeat,
-                      o.build_repeat, o.validate},
-                     o.json);
+  if (!o.json.empty()) write_bench_json(results, o.scene, o, o.json);
   std::uint64_t mismatches = 0;
   for (const auto& result : results)
     for (const auto& run : result.runs)
