@@ -12,13 +12,13 @@
 #include <string>
 #include <vector>
 
-#include "core/build/build_grid.h"
-#include "core/random.h"
+#include "core/construction/build_grid.h"
 #include "core/triangle_box.h"
 #include "cpu/cpu_executor.h"
 #include "cpu/structures.h"
-#include "irgrid/rays.h"
-#include "irgrid/scene.h"
+#include "irgrid/io/random.h"
+#include "irgrid/io/rays.h"
+#include "irgrid/io/scene.h"
 
 namespace irgrid::testing {
 
@@ -35,8 +35,8 @@ inline GridArrays<CpuExecutor> build_test_grid(const Scene& scene,
                                                const BuildConfig& config = initial_grid_config()) {
   CpuExecutor exec;
   GridArrays<CpuExecutor> grid;
-  gather_triangles(scene, grid.triangles);
-  std::map<std::string, double> phases;
+  gather_triangles(scene.mesh(), grid.triangles);
+  PhaseTimes phases;
   build_grid(exec, grid, config, phases);
   return grid;
 }
@@ -115,7 +115,7 @@ inline std::vector<std::array<Vec3f, 3>> sliver_beside_square_triangles() {
 
 /// Rays from within 0.71 units of the plane of sliver_beside_square_triangles()'s sliver
 /// (y = z), anywhere along its length, in random directions. Its far vertices then lie far along
-/// the ray on both of its sides, where the float test's t cancels (core/watertight.h,
+/// the ray on both of its sides, where the float test's t cancels (irgrid/kernel/watertight.h,
 /// t_needs_double): before its redo in double, 5% of such rays got a wrong hit or miss.
 inline std::vector<Ray> rays_near_the_slivers_plane(int count, std::uint64_t seed) {
   Pcg32 rng;

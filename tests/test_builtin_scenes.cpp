@@ -9,9 +9,9 @@
 #include <utility>
 #include <vector>
 
-#include "core/random.h"
 #include "irgrid/error.h"
-#include "irgrid/scene.h"
+#include "irgrid/io/random.h"
+#include "irgrid/io/scene.h"
 
 namespace irgrid {
 namespace {

@@ -5,7 +5,7 @@
 
 #include "irgrid/accelerator.h"
 #include "irgrid/error.h"
-#include "irgrid/rays.h"
+#include "irgrid/io/rays.h"
 #include "irgrid/system.h"
 
 namespace irgrid {
@@ -21,10 +21,10 @@ TEST(GpuBruteForce, EqualsCpuBitForBit) {
   if (IsSkipped()) return;
   const Scene scene = load_scene("builtin:cornell");
   AcceleratorOptions gpu_options;
-  gpu_options.backend = "cuda";
-  const auto gpu = make_accelerator(scene, "brute", gpu_options);
-  const auto cpu = make_accelerator(scene, "brute");
-  ASSERT_EQ(gpu->backend(), "cuda");
+  gpu_options.backend = Backend::cuda;
+  const auto gpu = make_accelerator(scene, Structure::brute, gpu_options);
+  const auto cpu = make_accelerator(scene, Structure::brute);
+  ASSERT_EQ(gpu->backend(), Backend::cuda);
   RayConfig config;
   config.width = 64, config.height = 64, config.spp = 2, config.count = 5000;
   for (RayKind kind : {RayKind::primary, RayKind::ao, RayKind::diffuse, RayKind::random}) {
@@ -42,15 +42,15 @@ TEST(GpuBackend, CudaWithoutDeviceIsAClearError) {
   if (!cuda_status().gpus.empty()) GTEST_SKIP() << "a GPU is present";
   const Scene scene = load_scene("builtin:cube");
   AcceleratorOptions options;
-  options.backend = "cuda";
+  options.backend = Backend::cuda;
   try {
-    make_accelerator(scene, "brute", options);
+    make_accelerator(scene, Structure::brute, options);
     FAIL() << "expected an error";
   } catch (const Error& e) {
     EXPECT_EQ(e.code(), ErrorCode::no_device);
   }
-  options.backend = "auto";
-  EXPECT_EQ(make_accelerator(scene, "brute", options)->backend(), "cpu");
+  options.backend = Backend::automatic;
+  EXPECT_EQ(make_accelerator(scene, Structure::brute, options)->backend(), Backend::cpu);
 }
 
 }  // namespace

@@ -6,12 +6,12 @@
 #include <cstring>
 #include <filesystem>
 
-#include "core/build/compress_cells.h"
-#include "core/build/grid_statistics.h"
+#include "core/construction/compress_cells.h"
+#include "core/construction/grid_statistics.h"
 #include "grid_test_support.h"
 #include "irgrid/accelerator.h"
-#include "irgrid/camera.h"
-#include "irgrid/rays.h"
+#include "irgrid/io/camera.h"
+#include "irgrid/io/rays.h"
 #include "irgrid/system.h"
 #if IRGRID_HAS_CUDA
 #include "cuda/grid_cuda.h"
@@ -52,7 +52,7 @@ void expect_same_array(const std::vector<T>& gpu, const Buffer& cpu, const std::
 #if IRGRID_HAS_CUDA
 void expect_same_grid(const Scene& scene, const BuildConfig& config, const std::string& what) {
   const auto cpu = testing::build_test_grid(scene, config);
-  const HostGridArrays gpu = build_grid_cuda_arrays(scene, config, 1);
+  const HostGridArrays gpu = build_grid_cuda_arrays(scene.mesh(), config, 1);
   EXPECT_EQ(std::memcmp(&gpu.info, &cpu.info, sizeof(GridInfo)), 0) << what << ": GridInfo";
   expect_same_array(gpu.entries, cpu.entries, what + ": voxel map");
   expect_same_array(gpu.cells, cpu.cells, what + ": cells");
@@ -76,7 +76,7 @@ TEST(GpuGrid, SameArraysAsTheCpuOnBuiltinScenes) {
                        BuildConfig::Shape::uniform}) {
       BuildConfig config;
       config.shape = shape;
-      expect_same_grid(scene, config, spec + " " + grid_shape_name(shape));
+      expect_same_grid(scene, config, spec + " " + std::to_string(int(shape)));
     }
     expect_same_grid(scene, testing::initial_grid_config(), spec + " initial grid");
   }
@@ -97,8 +97,8 @@ TEST(GpuGrid, RebuildsAreIdenticalAndAllocateNothing) {
   IRGRID_SKIP_WITHOUT_GPU();
 #if IRGRID_HAS_CUDA
   const Scene scene = load_scene("builtin:teapot-stadium:4000");
-  const HostGridArrays once = build_grid_cuda_arrays(scene, BuildConfig{}, 1);
-  const HostGridArrays thrice = build_grid_cuda_arrays(scene, BuildConfig{}, 3);
+  const HostGridArrays once = build_grid_cuda_arrays(scene.mesh(), BuildConfig{}, 1);
+  const HostGridArrays thrice = build_grid_cuda_arrays(scene.mesh(), BuildConfig{}, 3);
   EXPECT_EQ(thrice.fresh_allocations_last_build, 0u);
   EXPECT_EQ(std::memcmp(&once.info, &thrice.info, sizeof(GridInfo)), 0);
   expect_same_array(once.entries, thrice.entries, "voxel map");
@@ -111,15 +111,21 @@ TEST(GpuGrid, RebuildsAreIdenticalAndAllocateNothing) {
 /// The same rays on both backends give the same hits bit for bit, and the same work counts.
 void expect_same_hits(const Scene& scene, const std::string& structure, const std::string& what) {
   AcceleratorOptions gpu_options;
-  gpu_options.backend = "cuda";
-  const auto gpu = make_accelerator(scene, structure, gpu_options);
-  const auto cpu = make_accelerator(scene, structure);
-  ASSERT_EQ(gpu->backend(), "cuda");
-  // The same grid: every count but the peak build memory (host bytes vs device bytes).
-  auto gpu_counts = gpu->build_info().counts, cpu_counts = cpu->build_info().counts;
-  gpu_counts.erase("peak_build_bytes");
-  cpu_counts.erase("peak_build_bytes");
-  EXPECT_EQ(gpu_counts, cpu_counts) << what;
+  gpu_options.backend = Backend::cuda;
+  const auto gpu = make_accelerator(scene, parse_structure(structure), gpu_options);
+  const auto cpu = make_accelerator(scene, parse_structure(structure));
+  ASSERT_EQ(gpu->backend(), Backend::cuda);
+  // The same grid: every count (the peak build memory differs: host bytes vs device bytes).
+  const GridStats& g = *gpu->build_stats().grid;
+  const GridStats& c = *cpu->build_stats().grid;
+  EXPECT_EQ(g.top_level_references, c.top_level_references) << what;
+  EXPECT_EQ(g.cells, c.cells) << what;
+  EXPECT_EQ(g.references, c.references) << what;
+  EXPECT_EQ(g.voxel_map_entries, c.voxel_map_entries) << what;
+  EXPECT_EQ(g.top_dims, c.top_dims) << what;
+  EXPECT_EQ(g.depth, c.depth) << what;
+  EXPECT_EQ(g.compressed_cells, c.compressed_cells) << what;
+  EXPECT_EQ(gpu->build_stats().memory_bytes, cpu->build_stats().memory_bytes) << what;
   RayConfig config;
   config.width = 128, config.height = 128, config.spp = 2, config.count = 20000;
   const auto views = scene_views(scene);
@@ -159,9 +165,9 @@ TEST(GpuGrid, SameHitsAsTheCpuOnSharedScenes) {
 TEST(GpuGrid, CudaWithoutDeviceIsAClearError) {
   if (!gpu_missing()) GTEST_SKIP() << "a GPU is present";
   AcceleratorOptions options;
-  options.backend = "cuda";
+  options.backend = Backend::cuda;
   try {
-    make_accelerator(load_scene("builtin:cube"), "irregular", options);
+    make_accelerator(load_scene("builtin:cube"), Structure::irregular, options);
     FAIL() << "expected an error";
   } catch (const Error& e) {
     EXPECT_EQ(e.code(), ErrorCode::no_device);

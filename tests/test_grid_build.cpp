@@ -13,10 +13,10 @@
 #include <string>
 #include <utility>
 
-#include "core/build/compress_cells.h"
-#include "core/random.h"
+#include "core/construction/compress_cells.h"
 #include "core/triangle_box.h"
 #include "grid_test_support.h"
+#include "irgrid/io/random.h"
 
 namespace irgrid {
 namespace {
@@ -216,10 +216,10 @@ TEST_P(GridBuild, DepthFirstOctreesEqualTheLevelByLevelBuild) {
     const auto depth_first = build_test_grid(scene, config);
     LevelByLevelExecutor exec;
     GridArrays<LevelByLevelExecutor> level_by_level;
-    gather_triangles(scene, level_by_level.triangles);
-    std::map<std::string, double> phases;
+    gather_triangles(scene.mesh(), level_by_level.triangles);
+    PhaseTimes phases;
     build_grid(exec, level_by_level, config, phases);
-    ASSERT_GT(phases.count("octree levels"), 0u);
+    ASSERT_TRUE(phases[std::size_t(BuildPhase::octree_levels)].has_value());
     testing::expect_same_grid(depth_first, level_by_level);
   }
 }
@@ -431,8 +431,8 @@ void expect_octrees_stop_for_memory() {
   const Scene scene = load_scene("builtin:teapot-stadium:4000");
   Exec exec;
   GridArrays<Exec> grid;
-  gather_triangles(scene, grid.triangles);
-  std::map<std::string, double> phases;
+  gather_triangles(scene.mesh(), grid.triangles);
+  PhaseTimes phases;
   try {
     build_grid(exec, grid, BuildConfig{}, phases);
     FAIL() << "no error";
@@ -455,17 +455,18 @@ TEST(GridLimits, ATopGridThatOutgrowsTheMemoryStopsBeforeItIsAllocated) {
   const Scene scene = load_scene("builtin:cube");
   TinyMemoryExecutor exec;
   GridArrays<TinyMemoryExecutor> grid;
-  gather_triangles(scene, grid.triangles);
+  gather_triangles(scene.mesh(), grid.triangles);
   BuildConfig config;
   config.lambda1 = float(1 << 20) / float(grid.triangles.size());
-  std::map<std::string, double> phases;
+  PhaseTimes phases;
   try {
     build_grid(exec, grid, config, phases);
     FAIL() << "no error";
   } catch (const Error& e) {
     EXPECT_EQ(e.code(), ErrorCode::out_of_memory);
     EXPECT_NE(std::string(e.what()).find("lower lambda1"), std::string::npos) << e.what();
-    EXPECT_EQ(phases.count("octree levels"), 0u) << "stopped before the octrees";
+    EXPECT_EQ(phases[std::size_t(BuildPhase::octree_levels)].has_value(), false)
+        << "stopped before the octrees";
   }
 }
 

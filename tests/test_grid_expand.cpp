@@ -14,14 +14,14 @@
 #include <map>
 #include <tuple>
 
-#include "core/build/expand.h"
-#include "core/grid/traverse.h"
-#include "core/random.h"
+#include "core/construction/expand.h"
 #include "core/triangle_box.h"
 #include "grid_test_support.h"
-#include "irgrid/camera.h"
-#include "irgrid/rays.h"
-#include "irgrid/validate.h"
+#include "irgrid/io/camera.h"
+#include "irgrid/io/random.h"
+#include "irgrid/io/rays.h"
+#include "irgrid/io/validate.h"
+#include "irgrid/kernel/grid_traverse.h"
 
 namespace irgrid {
 namespace {

@@ -13,13 +13,13 @@
 #include <limits>
 #include <map>
 
-#include "core/build/merge.h"
-#include "core/grid/traverse.h"
-#include "core/random.h"
+#include "core/construction/merge.h"
 #include "core/triangle_box.h"
 #include "grid_test_support.h"
-#include "irgrid/rays.h"
-#include "irgrid/validate.h"
+#include "irgrid/io/random.h"
+#include "irgrid/io/rays.h"
+#include "irgrid/io/validate.h"
+#include "irgrid/kernel/grid_traverse.h"
 
 namespace irgrid {
 namespace {
@@ -248,7 +248,7 @@ Grid build_octree_form_grid(const Scene& scene) {
     grid.triangles.push_back({Vec3<float>::from(scene.vertices[tri[0]]),
                               Vec3<float>::from(scene.vertices[tri[1]]),
                               Vec3<float>::from(scene.vertices[tri[2]])});
-  std::map<std::string, double> phases_ms;
+  PhaseTimes phases_ms;
   PhaseClock clock(exec, phases_ms);
   build_initial_grid(exec, grid, BuildConfig{}, clock);
   return grid;

@@ -5,17 +5,17 @@
 #include <cstring>
 #include <limits>
 
-#include "core/build/compress_cells.h"
-#include "core/random.h"
+#include "api/grid_accelerator_base.h"
+#include "core/construction/compress_cells.h"
 #include "cpu/interleaved_walk.h"
 #include "cpu/simd_walk.h"
 #include "cpu/walk_policy.h"
-#include "grid_accelerator_base.h"
 #include "grid_test_support.h"
 #include "irgrid/accelerator.h"
-#include "irgrid/camera.h"
-#include "irgrid/rays.h"
-#include "irgrid/validate.h"
+#include "irgrid/io/camera.h"
+#include "irgrid/io/random.h"
+#include "irgrid/io/rays.h"
+#include "irgrid/io/validate.h"
 
 namespace irgrid {
 namespace {
@@ -58,7 +58,7 @@ void expect_exact(const Scene& scene, const std::string& structure, const BuildC
                   const std::vector<Ray>& rays, const std::string& what) {
   AcceleratorOptions options;
   options.grid = config;
-  const auto accelerator = make_accelerator(scene, structure, options);
+  const auto accelerator = make_accelerator(scene, parse_structure(structure), options);
   const ReferenceTracer reference(scene);
   for (Query query : {Query::closest, Query::any}) {
     std::vector<Hit> hits(rays.size());
@@ -77,12 +77,12 @@ TEST(GridTraversal, CompressedAndFullCellsGiveIdenticalHits) {
     AcceleratorOptions full, compressed;
     full.grid.compress = false;
     compressed.grid.compress = true;
-    const auto a = make_accelerator(scene, "irregular", full);
-    const auto b = make_accelerator(scene, "irregular", compressed);
-    EXPECT_EQ(a->build_info().counts.at("compressed_cells"), 0u);
-    EXPECT_EQ(b->build_info().counts.at("compressed_cells"), 1u);
-    EXPECT_EQ(b->build_info().bytes.at("cells") * 2,
-              a->build_info().bytes.at("cells") + 32);  // half, plus the 16-byte sentinel
+    const auto a = make_accelerator(scene, Structure::irregular, full);
+    const auto b = make_accelerator(scene, Structure::irregular, compressed);
+    EXPECT_FALSE(a->build_stats().grid->compressed_cells);
+    EXPECT_TRUE(b->build_stats().grid->compressed_cells);
+    EXPECT_EQ(b->build_stats().grid->cells_bytes * 2,
+              a->build_stats().grid->cells_bytes + 32);  // half, plus the 16-byte sentinel
     for (Query query : {Query::closest, Query::any}) {
       std::vector<Hit> hits_a(rays.size()), hits_b(rays.size());
       a->trace(rays, hits_a, query);
@@ -111,10 +111,10 @@ TEST(GridTraversal, LeapsThroughEmptySpaceVisitFewerCellsForTheSameHits) {
     AcceleratorOptions walled, leaping;
     walled.grid.skip_empty = false;
     leaping.grid.skip_empty = true;
-    const auto a = make_accelerator(scene, "irregular", walled);
-    const auto b = make_accelerator(scene, "irregular", leaping);
-    EXPECT_EQ(a->build_info().bytes.count("empty_radii"), 0u);
-    EXPECT_GT(b->build_info().bytes.at("empty_radii"), 0u);
+    const auto a = make_accelerator(scene, Structure::irregular, walled);
+    const auto b = make_accelerator(scene, Structure::irregular, leaping);
+    EXPECT_EQ(a->build_stats().grid->empty_radii_bytes, 0u);
+    EXPECT_GT(b->build_stats().grid->empty_radii_bytes, 0u);
     expect_exact(scene, "irregular", leaping.grid, rays, spec);
     std::vector<Hit> hits_a(rays.size()), hits_b(rays.size());
     std::vector<RayWork> work_a(rays.size()), work_b(rays.size());
@@ -203,7 +203,7 @@ void for_adversarial_ray_sets(Check check) {
 
 TEST(GridTraversal, InterleavedWalksEqualSingleWalks) {
   for_adversarial_ray_sets([](const auto& grid, const auto& rays, const std::string& what) {
-    const GridView view = grid_view(grid, nullptr);
+    const GridView view = make_grid_view(grid, nullptr);
     expect_interleaved_equals_single<Query::closest>(view, rays, what);
     expect_interleaved_equals_single<Query::any>(view, rays, what);
   });
@@ -215,7 +215,7 @@ template <SimdIsa kIsa>
 void expect_simd_walks_equal_single_walks() {
   for_adversarial_ray_sets([](const auto& grid, const auto& rays, const std::string& what) {
     ASSERT_TRUE(simd_walk_fits(grid.info));
-    const GridView view = grid_view(grid, nullptr);
+    const GridView view = make_grid_view(grid, nullptr);
     expect_walk_equals_single<Query::closest, Cell>(trace_simd_lanes<kIsa, Query::closest, Cell>,
                                                     view, rays, what);
     expect_walk_equals_single<Query::any, Cell>(trace_simd_lanes<kIsa, Query::any, Cell>, view,
@@ -223,7 +223,7 @@ void expect_simd_walks_equal_single_walks() {
     CpuExecutor exec;
     CpuExecutor::Buffer<CompactCell> compact;
     compress_cells(exec, grid, compact);
-    const GridView compact_view = grid_view(grid, compact.data());
+    const GridView compact_view = make_grid_view(grid, compact.data());
     expect_walk_equals_single<Query::closest, CompactCell>(
         trace_simd_lanes<kIsa, Query::closest, CompactCell>, compact_view, rays,
         what + ", compressed");
@@ -251,7 +251,7 @@ TEST(WalkPolicy, CameraRaysAreCoherentRandomRaysAreNot) {
   EXPECT_FALSE(rays_are_coherent(grid.info, random));
   EXPECT_FALSE(rays_are_coherent(grid.info, std::span(camera).subspan(0, 1)));
   // Both ways give the same hits and work, so the choice only changes the speed.
-  const GridView view = grid_view(grid, nullptr);
+  const GridView view = make_grid_view(grid, nullptr);
   expect_interleaved_equals_single<Query::closest>(view, camera, "camera rays");
   expect_interleaved_equals_single<Query::closest>(view, random, "random rays");
 }
@@ -296,7 +296,7 @@ TEST(GridTraversal, RaysNearALongSliversPlaneGetTheDoubleT) {
   trace_reference_double(scene, rays, reference, Query::closest);
   for (const char* structure : {"irregular", "two-level", "uniform"}) {
     std::vector<Hit> hits(rays.size());
-    make_accelerator(scene, structure)->trace(rays, hits, Query::closest);
+    make_accelerator(scene, parse_structure(structure))->trace(rays, hits, Query::closest);
     testing::expect_hits_match_reference(scene, rays, hits, reference, 0.05, structure);
   }
 }
@@ -304,7 +304,7 @@ TEST(GridTraversal, RaysNearALongSliversPlaneGetTheDoubleT) {
 TEST(GridTraversal, ScenesWithoutValidTrianglesMissEverything) {
   const Scene scene = testing::scene_from_triangles({{{{1, 1, 1}, {1, 1, 1}, {1, 1, 1}}}});
   ASSERT_EQ(scene.triangle_count(), 0u);
-  const auto accelerator = make_accelerator(scene, "irregular");
+  const auto accelerator = make_accelerator(scene, Structure::irregular);
   const std::vector<Ray> rays = {{{0, 0, 0}, 0, {1, 1, 1}, kInf}};
   std::vector<Hit> hits(1);
   accelerator->trace(rays, hits, Query::closest);

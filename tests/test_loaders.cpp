@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "irgrid/error.h"
-#include "irgrid/scene.h"
+#include "irgrid/io/scene.h"
 
 namespace irgrid {
 namespace {

@@ -6,9 +6,9 @@
 #include <filesystem>
 #include <fstream>
 
-#include "irgrid/camera.h"
 #include "irgrid/error.h"
-#include "irgrid/rays.h"
+#include "irgrid/io/camera.h"
+#include "irgrid/io/rays.h"
 
 namespace irgrid {
 namespace {
@@ -27,7 +27,7 @@ fs::path temp_file(const std::string& name) {
 class RaysTest : public ::testing::Test {
  protected:
   Scene scene = load_scene("builtin:cornell");
-  std::unique_ptr<Accelerator> tracer = make_accelerator(scene, "brute");
+  std::unique_ptr<Accelerator> tracer = make_accelerator(scene, Structure::brute);
   RayConfig config = [] {
     RayConfig c;
     c.width = 48, c.height = 32, c.spp = 3, c.count = 1000;

@@ -5,10 +5,10 @@
 #include <cstring>
 #include <limits>
 
-#include "core/random.h"
 #include "irgrid/accelerator.h"
-#include "irgrid/rays.h"
-#include "irgrid/validate.h"
+#include "irgrid/io/random.h"
+#include "irgrid/io/rays.h"
+#include "irgrid/io/validate.h"
 
 namespace irgrid {
 namespace {

@@ -10,10 +10,10 @@
 #include <vector>
 
 #include "irgrid/accelerator.h"
-#include "irgrid/camera.h"
-#include "irgrid/rays.h"
-#include "irgrid/scene.h"
-#include "irgrid/validate.h"
+#include "irgrid/io/camera.h"
+#include "irgrid/io/rays.h"
+#include "irgrid/io/scene.h"
+#include "irgrid/io/validate.h"
 
 namespace irgrid {
 namespace {
@@ -73,7 +73,7 @@ TEST_P(SharedScenesTest, IrregularGridEqualsTheDoubleReferenceOnEveryViewAndRayK
   const std::filesystem::path path = std::filesystem::path(IRGRID_SHARED_SCENES) / GetParam().file;
   if (!std::filesystem::exists(path)) GTEST_SKIP() << "shared scene not present: " << path;
   const Scene scene = load_scene(path.string());
-  const auto grid = make_accelerator(scene, "irregular");
+  const auto grid = make_accelerator(scene, Structure::irregular);
   const ReferenceTracer reference(scene);
   // Smaller than bench's sets, every ray checked: `bench --validate` samples bigger ones.
   RayConfig config;

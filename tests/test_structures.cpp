@@ -1,14 +1,15 @@
 // Every structure built into this binary agrees with the double-precision brute force.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
 
 #include "irgrid/accelerator.h"
 #include "irgrid/error.h"
-#include "irgrid/rays.h"
-#include "irgrid/validate.h"
+#include "irgrid/io/rays.h"
+#include "irgrid/io/validate.h"
 
 namespace irgrid {
 namespace {
@@ -22,7 +23,7 @@ struct Workload {
 std::vector<Workload> standard_workloads(const Scene& scene) {
   RayConfig config;
   config.width = 40, config.height = 30, config.spp = 2, config.count = 1500;
-  const auto brute = make_accelerator(scene, "brute");
+  const auto brute = make_accelerator(scene, Structure::brute);
   std::vector<Workload> loads;
   const auto views = scene_views(scene);
   for (std::size_t v = 0; v < views.size(); ++v)
@@ -33,7 +34,7 @@ std::vector<Workload> standard_workloads(const Scene& scene) {
   return loads;
 }
 
-class EveryStructure : public ::testing::TestWithParam<std::string> {};
+class EveryStructure : public ::testing::TestWithParam<Structure> {};
 
 TEST_P(EveryStructure, AgreesWithTheReferenceOnStandardRays) {
   for (const char* spec : {"builtin:cornell", "builtin:teapot-stadium:3000", "builtin:soup:3000"}) {
@@ -89,7 +90,7 @@ Scene hand_made_square() {
 }
 
 /// The message of the Error that building `structure` over `scene` throws ("" if none).
-std::string build_error(const Scene& scene, const std::string& structure) {
+std::string build_error(const Scene& scene, Structure structure) {
   try {
     make_accelerator(scene, structure);
   } catch (const Error& e) {
@@ -156,7 +157,12 @@ TEST_P(EveryStructure, MalformedRaysMissInsteadOfFailing) {
   EXPECT_TRUE(hit[0].hit());
 }
 
-INSTANTIATE_TEST_SUITE_P(Cpu, EveryStructure, ::testing::ValuesIn(available_structures()));
+INSTANTIATE_TEST_SUITE_P(Cpu, EveryStructure, ::testing::ValuesIn(available_structures()),
+                         [](const auto& info) {
+                           std::string name = to_string(info.param);
+                           std::replace(name.begin(), name.end(), '-', '_');
+                           return name;
+                         });
 
 TEST(Validation, CountsWrongHits) {
   const Scene scene = load_scene("builtin:cube");
@@ -194,15 +200,14 @@ TEST(Validation, FragileDisagreementsAreNotMismatchesButRobustOnesAre) {
 TEST(Factory, UnknownStructureOrBackendNamesTheValue) {
   const Scene scene = load_scene("builtin:cube");
   try {
-    make_accelerator(scene, "kd-tree");
+    parse_structure("kd-tree");
     FAIL();
   } catch (const Error& e) {
     EXPECT_EQ(e.code(), ErrorCode::invalid_argument);
     EXPECT_NE(std::string(e.what()).find("kd-tree"), std::string::npos);
   }
   AcceleratorOptions options;
-  options.backend = "opencl";
-  EXPECT_THROW(make_accelerator(scene, "brute", options), Error);
+  EXPECT_THROW(parse_backend("opencl"), Error);
 }
 
 }  // namespace

@@ -11,8 +11,8 @@
 #include <set>
 #include <vector>
 
-#include "core/random.h"
 #include "core/triangle_box.h"
+#include "irgrid/io/random.h"
 
 namespace irgrid {
 namespace {

@@ -6,11 +6,12 @@
 #include <limits>
 #include <map>
 
-#include "core/random.h"
-#include "core/watertight.h"
 #include "grid_test_support.h"
 #include "irgrid/accelerator.h"
-#include "irgrid/scene.h"
+#include "irgrid/io/random.h"
+#include "irgrid/io/scene.h"
+#include "irgrid/io/validate.h"
+#include "irgrid/kernel/watertight.h"
 
 namespace irgrid {
 namespace {
@@ -84,7 +85,7 @@ std::pair<std::size_t, std::size_t> count_leaks(const Scene& scene,
       if (crosses_transversally(scene, point, origin))
         rays.push_back(ray_towards(origin, point.position));
   std::vector<Hit> hits(rays.size());
-  make_accelerator(scene, "brute")->trace(rays, hits, Query::closest);
+  make_accelerator(scene, Structure::brute)->trace(rays, hits, Query::closest);
   std::size_t leaks = 0;
   for (const Hit& hit : hits)
     leaks += !hit.hit();
@@ -126,7 +127,7 @@ TEST(Watertight, AxisParallelRaysThroughEdgesOfTheCube) {
       rays.push_back({{-5, a, b}, 0, {1, 0, 0}, kInf});
     }
   std::vector<Hit> hits(rays.size());
-  make_accelerator(scene, "brute")->trace(rays, hits, Query::closest);
+  make_accelerator(scene, Structure::brute)->trace(rays, hits, Query::closest);
   // Every ray enters through the near face, its edges or its corners (even those lying in the
   // plane of a side face): the boundary of a triangle belongs to it.
   for (std::size_t i = 0; i < rays.size(); ++i) {
@@ -171,7 +172,7 @@ TEST(Watertight, FloatAgreesWithDoubleReferenceOnARandomSoup) {
     ray = {{o.x, o.y, o.z}, 0, {d.x, d.y, d.z}, kInf};
   }
   std::vector<Hit> hits(rays.size()), reference(rays.size());
-  make_accelerator(scene, "brute")->trace(rays, hits, Query::closest);
+  make_accelerator(scene, Structure::brute)->trace(rays, hits, Query::closest);
   trace_reference_double(scene, rays, reference, Query::closest);
   std::size_t hit_count = 0;
   for (std::size_t i = 0; i < rays.size(); ++i) {
@@ -191,7 +192,7 @@ TEST(Watertight, FloatTNearALongSliversPlaneAgreesWithDouble) {
   const Scene scene = testing::scene_from_triangles(testing::sliver_beside_square_triangles());
   const auto rays = testing::rays_near_the_slivers_plane(20000, 3);
   std::vector<Hit> hits(rays.size()), reference(rays.size());
-  make_accelerator(scene, "brute")->trace(rays, hits, Query::closest);
+  make_accelerator(scene, Structure::brute)->trace(rays, hits, Query::closest);
   trace_reference_double(scene, rays, reference, Query::closest);
   const auto hit_count =
       std::count_if(reference.begin(), reference.end(), [](const Hit& hit) { return hit.hit(); });

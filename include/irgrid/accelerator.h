@@ -1,29 +1,125 @@
-// irgrid/accelerator.h: the coarse backend seam: build a structure over a scene, trace batches.
+// irgrid/accelerator.h: the coarse backend seam: build a structure over a mesh, trace batches.
 #pragma once
 
+#include <array>
+#include <cstddef>
+#include <cstdint>
 #include <functional>
-#include <iterator>
-#include <map>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "irgrid/build_config.h"
+#include "irgrid/kernel/grid_traverse.h"
+#include "irgrid/mesh.h"
 #include "irgrid/ray.h"
-#include "irgrid/scene.h"
+
+/// The CUDA runtime's stream type is `CUstream_st*` (cudaStream_t); declared here so that this
+/// header needs no CUDA headers.
+struct CUstream_st;
 
 namespace irgrid {
 
-/// Figures a structure reports about its build.
-struct BuildInfo {
-  double build_ms = 0;                      ///< wall time of the build, allocation included
-  std::map<std::string, double> phases_ms;  ///< per-phase wall times (keys sorted by name)
-  std::uint64_t memory_bytes = 0;           ///< bytes of the final structure (triangles included)
-  /// Structure-specific counts (cells, references, ...).
-  std::map<std::string, std::uint64_t> counts;
-  /// Bytes of each array of the final structure.
-  std::map<std::string, std::uint64_t> bytes;
+/// The acceleration structures. The grids are built from the same phases: the irregular grid
+/// (Pérard-Gayot et al. 2017), the two-level grid (Kalojanov et al. 2011) and the uniform grid
+/// are irgrid's own; brute force tests every triangle; embree and embree_packets are Embree 3's
+/// BVH (one ray at a time, or packets of 8), when this build has Embree.
+enum class Structure { irregular, two_level, uniform, brute, embree, embree_packets };
+
+/// "irregular", "two-level", "uniform", "brute", "embree", "embree-packets".
+const char* to_string(Structure structure) noexcept;
+/// The structure of that name (as to_string spells it). Throws Error{invalid_argument} naming
+/// the value and the structures of this build.
+Structure parse_structure(std::string_view name);
+/// Whether `structure` is one of the grids (which report GridStats and count their work).
+bool is_grid(Structure structure) noexcept;
+
+/// Where a structure is built and traversed. `automatic` is CUDA when a usable GPU is visible,
+/// else the CPU.
+enum class Backend { cpu, cuda, automatic };
+
+/// "cpu", "cuda", "auto".
+const char* to_string(Backend backend) noexcept;
+/// "cpu", "cuda" or "auto"; throws Error{invalid_argument} naming the value.
+Backend parse_backend(std::string_view name);
+
+/// How the CPU backend walks rays through a grid. The hits are the same whichever it is.
+/// `automatic`: 16 AVX-512 or 8 AVX2 lanes where the CPU has them, else one ray at a time for
+/// coherent rays on a cache-sized grid and interleaved walks otherwise. The others force one
+/// way, to compare them; a SIMD walk the CPU lacks makes make_accelerator throw.
+enum class CpuWalk { automatic, avx512, avx2, single, interleaved };
+
+/// "auto", "avx512", "avx2", "single", "interleaved".
+const char* to_string(CpuWalk walk) noexcept;
+/// The walk of that name (to_string's spelling, or "simd" for automatic); throws
+/// Error{invalid_argument} naming the value.
+CpuWalk parse_cpu_walk(std::string_view name);
+/// The walk `walk` takes on this CPU for grids that fit the SIMD walk: "avx512", "avx2",
+/// "single", "interleaved", or "scalar" (automatic on a CPU without AVX2).
+const char* cpu_walk_in_use(CpuWalk walk);
+
+/// The phases of a grid build, in the order they run (Pérard-Gayot et al. 2017, §3-§5).
+enum class BuildPhase {
+  top_grid,
+  top_level_references,
+  octree_levels,
+  empty_space,  ///< irregular grids with BuildConfig::skip_empty only
+  cells_and_references,
+  merge,
+  voxel_map,
+  expansion,
+  compress,  ///< with BuildConfig::compress only
+};
+inline constexpr std::size_t kBuildPhaseCount = 9;
+/// "top grid", "top-level references", "octree levels", "empty space", "cells and references",
+/// "merge", "voxel map", "expansion", "compress".
+const char* to_string(BuildPhase phase) noexcept;
+
+/// Wall time of each grid build phase that ran, indexed by BuildPhase.
+using PhaseTimes = std::array<std::optional<double>, kBuildPhaseCount>;
+
+/// What a grid build made (zero for structures that are not grids).
+struct GridStats {
+  std::uint64_t top_level_references = 0;   ///< (top cell, triangle) pairs
+  std::uint64_t cells = 0;                  ///< cells after merging
+  std::uint64_t references = 0;             ///< triangle references of all cells
+  std::uint64_t voxel_map_entries = 0;      ///< entries of the voxel map
+  std::array<std::uint32_t, 3> top_dims{};  ///< top grid resolution
+  std::uint32_t depth = 0;        ///< octree levels below the top grid (the virtual grid's shift)
+  bool compressed_cells = false;  ///< 16-byte cells (BuildConfig::compress)
+  double lambda2_used = 0;        ///< the λ2 the octrees used (effective_lambda2)
+  /// Bytes of each array of the final grid; memory_bytes is their sum.
+  std::uint64_t cells_bytes = 0, references_bytes = 0, voxel_map_bytes = 0, triangles_bytes = 0,
+                empty_radii_bytes = 0;
+  /// The most memory the build held at once beyond what it started with (host memory of the
+  /// build's buffers on the CPU, the device memory pool's peak on CUDA).
+  std::uint64_t peak_build_bytes = 0;
+  /// CUDA: device blocks this build took from the driver rather than from the memory pool that
+  /// earlier builds of the same accelerator filled (0 when a rebuild reused them all). 0 on the
+  /// CPU, whose builds take their buffers from the host allocator each time.
+  std::uint64_t fresh_allocations = 0;
+};
+
+/// Time spent in one parallel primitive of a CPU grid build (AcceleratorOptions::
+/// profile_primitives), summed over its calls.
+struct PrimitiveTime {
+  std::string name;
+  double ms = 0;
+};
+
+/// Figures a structure reports about its last build (or rebuild).
+struct BuildStats {
+  double build_ms = 0;  ///< wall time of the build, allocation included
+  /// Wall time of each grid build phase that ran, indexed by BuildPhase; empty for the phases
+  /// that did not run and for structures that are not grids.
+  PhaseTimes phase_ms{};
+  std::uint64_t memory_bytes = 0;  ///< bytes of the final structure (its triangles included)
+  std::optional<GridStats> grid;   ///< grids only
+  /// With AcceleratorOptions::profile_primitives on the CPU: each primitive, longest first.
+  std::vector<PrimitiveTime> primitives;
 };
 
 /// Work done for each ray (heat maps, statistics).
@@ -32,72 +128,84 @@ struct RayWork {
   std::uint32_t triangles = 0;  ///< ray/triangle tests
 };
 
-/// A built acceleration structure over one scene on one backend. Tracing is one call per batch
-/// of rays (no virtual call per ray); a structure may be traced from several threads at once.
-/// The scene must outlive the structure.
+/// Called by a grid build each time one of its phases ends (progress output). Runs on the
+/// thread that called make_accelerator or rebuild.
+using PhaseObserver = std::function<void(BuildPhase phase)>;
+
+/// Options for make_accelerator; fields are added at the end so that existing code keeps
+/// compiling.
+struct AcceleratorOptions {
+  Backend backend = Backend::cpu;         ///< where to build and trace
+  BuildConfig grid;                       ///< parameters of the grid structures
+  CpuWalk cpu_walk = CpuWalk::automatic;  ///< grids on the CPU backend
+  /// Embree's device configuration string (rtcNewDevice), e.g. "isa=avx2"; embree structures.
+  std::string embree_config;
+  /// Time every parallel primitive of a CPU grid build into BuildStats::primitives.
+  bool profile_primitives = false;
+  PhaseObserver on_phase;  ///< optional: told when each build phase ends
+};
+
+/// A built acceleration structure over one mesh on one backend. Tracing is one call per batch
+/// of rays (no virtual call per ray). trace, trace_counted and trace_device may be called from
+/// many threads at once on one accelerator; rebuild may not run while any of them does.
 class Accelerator {
  public:
   virtual ~Accelerator() = default;
-  /// Structure name as accepted by make_accelerator ("brute", "embree", ...).
-  virtual std::string structure() const = 0;
-  /// Backend name: "cpu" or "cuda".
-  virtual std::string backend() const = 0;
-  /// Traces rays[i] into hits[i] for every i; rays.size() must equal hits.size().
+  virtual Structure structure() const = 0;
+  /// Backend::cpu or Backend::cuda (never automatic).
+  virtual Backend backend() const = 0;
+
+  /// Traces rays[i] into hits[i] for every i (host memory on every backend); rays.size() must
+  /// equal hits.size(). Returns when the hits are written.
   virtual void trace(std::span<const Ray> rays, std::span<Hit> hits, Query query) const = 0;
+
   /// Whether trace_counted works (the grids); brute force and Embree do not count.
   virtual bool counts_work() const { return false; }
   /// Like trace, and also counts the work per ray into work[i]. Throws Error{invalid_argument}
   /// for structures that cannot count (counts_work() false).
   virtual void trace_counted(std::span<const Ray> rays, std::span<Hit> hits,
                              std::span<RayWork> work, Query query) const;
-  virtual const BuildInfo& build_info() const = 0;
+
+  /// CUDA backend: traces `count` rays at d_rays into d_hits, both in device memory, on the
+  /// caller's `stream` (nullptr: the default stream). Asynchronous: no host copies and no host
+  /// synchronisation; the hits are ready when the stream reaches that point. The accelerator
+  /// must outlive the work queued. Throws Error{invalid_argument} on other backends.
+  virtual void trace_device(const Ray* d_rays, Hit* d_hits, std::size_t count, Query query,
+                            CUstream_st* stream = nullptr) const;
+
+  /// The grid's arrays for tracing single rays from one's own code with irgrid/kernel.h: host
+  /// pointers on the CPU backend, device pointers on CUDA. Valid until the accelerator is
+  /// rebuilt or destroyed. Throws Error{invalid_argument} for structures that are not grids.
+  virtual GridView grid_view() const;
+
+  /// Builds the structure anew over `mesh`, which must have as many triangles as the mesh it
+  /// was built over (new vertex positions of the same topology: an animation frame), with the
+  /// options it was made with. Reuses the structure's memory: grids on the CUDA backend take
+  /// every block from the pool the first build filled, so rebuilding a frame that needs no
+  /// larger arrays allocates nothing from the driver. Throws Error{invalid_argument} for
+  /// another triangle count, as check_mesh for a bad mesh; after an exception the accelerator
+  /// traces every ray as a miss until a rebuild succeeds.
+  virtual void rebuild(const TriangleMesh& mesh) = 0;
+
+  /// Figures of the last build or rebuild.
+  virtual const BuildStats& build_stats() const = 0;
 };
 
-/// Called by a build each time one of its phases ends, with the phase's name (for progress
-/// output; grids only). Runs on the calling thread.
-using PhaseObserver = std::function<void(const char* phase)>;
-
-/// The phases a grid build reports (BuildInfo::phases_ms), in the order they run: "empty space"
-/// only for irregular grids that skip empty space, "compress" only with compressed cells.
-inline constexpr const char* kGridBuildPhaseNames[] = {"top grid",
-                                                       "top-level references",
-                                                       "octree levels",
-                                                       "empty space",
-                                                       "cells and references",
-                                                       "merge",
-                                                       "voxel map",
-                                                       "expansion",
-                                                       "compress"};
-
-/// How many phases a grid build reports at most.
-inline constexpr int kGridBuildPhases = int(std::size(kGridBuildPhaseNames));
-
-/// Options for make_accelerator; more fields arrive with more structures.
-struct AcceleratorOptions {
-  std::string backend = "cpu";  ///< "cpu", "cuda" or "auto" (CUDA when a GPU is visible)
-  BuildConfig grid;             ///< parameters of the grid structures
-  PhaseObserver on_phase;       ///< optional: told when each build phase ends
-};
-
-/// Builds `structure` over `scene`. Throws Error{invalid_argument} naming the structure when it is
-/// unknown or not compiled in, Error{no_device} when the backend is unavailable.
-std::unique_ptr<Accelerator> make_accelerator(const Scene& scene, const std::string& structure,
+/// Builds `structure` over `mesh` on options.backend (the mesh is copied: see TriangleMesh).
+/// Throws Error{invalid_argument} for a structure not compiled in, a bad mesh (check_mesh) or
+/// bad options, Error{no_device} when the CUDA backend is asked for without a usable GPU,
+/// Error{out_of_memory} or Error{limit_exceeded} when the structure would not fit.
+std::unique_ptr<Accelerator> make_accelerator(const TriangleMesh& mesh, Structure structure,
                                               const AcceleratorOptions& options = {});
 
-/// The backend that `backend` ("cpu", "cuda" or "auto") runs on: "cpu" or "cuda". Throws
-/// Error{no_device} (with the reason: no driver, driver too old, no GPU) for "cuda" without a
-/// usable GPU, Error{invalid_argument} for other names.
-std::string resolve_backend(const std::string& backend);
+/// The backend that `backend` runs on: cpu or cuda. Throws Error{no_device} (with the reason:
+/// no driver, driver too old, no GPU) for cuda without a usable GPU.
+Backend resolve_backend(Backend backend);
 
 /// Structures compiled into this build, fastest first.
-std::vector<std::string> available_structures();
+std::vector<Structure> available_structures();
 
-/// The fastest structure compiled in: what rendering and secondary-ray generation use.
-std::string default_structure();
-
-/// Brute force over all triangles in double precision, watertight: the trusted reference that
-/// tests and `bench --validate` compare against. Slow; meant for subsets of rays.
-void trace_reference_double(const Scene& scene, std::span<const Ray> rays, std::span<Hit> hits,
-                            Query query);
+/// The fastest structure compiled in (the irregular grid).
+inline constexpr Structure kDefaultStructure = Structure::irregular;
 
 }  // namespace irgrid

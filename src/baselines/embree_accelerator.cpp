@@ -5,7 +5,6 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <cstdlib>
 #include <cstring>
 #include <limits>
 
@@ -46,31 +45,44 @@ class DenormalsAreZero {
 
 class EmbreeCpu final : public Accelerator {
  public:
-  EmbreeCpu(const Scene& scene, bool packets) : packets_(packets) {
-    const auto start = std::chrono::steady_clock::now();
-    // IRGRID_EMBREE_CONFIG passes Embree's device configuration through, e.g. "isa=avx2" to
-    // compare with irgrid's AVX2 walk (IRGRID_CPU_WALK=avx2) on an AVX-512 machine.
-    const char* config = std::getenv("IRGRID_EMBREE_CONFIG");
-    device_ = rtcNewDevice(config);
+  EmbreeCpu(const TriangleMesh& mesh, bool packets, const std::string& config) : packets_(packets) {
+    // The configuration goes through to Embree, e.g. "isa=avx2" to compare with irgrid's AVX2
+    // walk (CpuWalk::avx2) on an AVX-512 machine.
+    device_ = rtcNewDevice(config.empty() ? nullptr : config.c_str());
     if (!device_)
-      throw Error(ErrorCode::internal,
-                  fmt::format("embree: rtcNewDevice failed (IRGRID_EMBREE_CONFIG='{}')",
-                              config ? config : ""));
+      throw Error(ErrorCode::invalid_argument,
+                  fmt::format("embree: rtcNewDevice failed for the configuration '{}'", config));
     rtcSetDeviceMemoryMonitorFunction(device_, &EmbreeCpu::count_bytes, &bytes_);
     scene_ = rtcNewScene(device_);
     rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_MEDIUM);
+    triangle_count_ = mesh.triangle_count;
     // An empty scene commits with no geometry (Embree cannot allocate empty buffers).
-    if (!scene.triangles.empty()) attach_triangles(scene);
-    {
-      const DenormalsAreZero denormals_are_zero;  // the build runs on this thread and TBB's
-      rtcCommitScene(scene_);
-    }
-    if (rtcGetDeviceError(device_) != RTC_ERROR_NONE) throw_embree_error(device_, "rtcCommitScene");
-    info_.build_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    info_.phases_ms["commit"] = info_.build_ms;
-    info_.memory_bytes = std::uint64_t(bytes_.load());
+    if (triangle_count_ > 0) attach_triangles(mesh);
+    commit(mesh);
   }
+
+  void rebuild(const TriangleMesh& mesh) override {
+    check_rebuild(mesh, triangle_count_);
+    if (triangle_count_ > 0) {
+      // Embree's buffers keep their size when the mesh keeps its vertex count.
+      const std::size_t vertex_count = mesh.vertex_count;
+      if (vertex_count != vertex_count_) {
+        rtcDetachGeometry(scene_, geometry_id_);
+        attach_triangles(mesh);
+      } else {
+        RTCGeometry geometry = rtcGetGeometry(scene_, geometry_id_);
+        copy_vertices(mesh, static_cast<float*>(
+                                rtcGetGeometryBufferData(geometry, RTC_BUFFER_TYPE_VERTEX, 0)));
+        copy_indices(mesh, static_cast<std::uint32_t*>(
+                               rtcGetGeometryBufferData(geometry, RTC_BUFFER_TYPE_INDEX, 0)));
+        rtcUpdateGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0);
+        rtcUpdateGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0);
+        rtcCommitGeometry(geometry);
+      }
+    }
+    commit(mesh);
+  }
+
   ~EmbreeCpu() override {
     if (scene_) rtcReleaseScene(scene_);
     if (device_) rtcReleaseDevice(device_);
@@ -78,9 +90,11 @@ class EmbreeCpu final : public Accelerator {
   EmbreeCpu(const EmbreeCpu&) = delete;
   EmbreeCpu& operator=(const EmbreeCpu&) = delete;
 
-  std::string structure() const override { return packets_ ? "embree-packets" : "embree"; }
-  std::string backend() const override { return "cpu"; }
-  const BuildInfo& build_info() const override { return info_; }
+  Structure structure() const override {
+    return packets_ ? Structure::embree_packets : Structure::embree;
+  }
+  Backend backend() const override { return Backend::cpu; }
+  const BuildStats& build_stats() const override { return info_; }
 
   void trace(std::span<const Ray> rays, std::span<Hit> hits, Query query) const override {
     check_trace_spans(rays, hits);
@@ -102,25 +116,45 @@ class EmbreeCpu final : public Accelerator {
   }
 
  private:
-  /// Copies the scene's vertices and triangles into one Embree triangle geometry of scene_.
-  void attach_triangles(const Scene& scene) {
+  /// Commits the scene (its build) and records the time and memory.
+  void commit(const TriangleMesh&) {
+    const auto start = std::chrono::steady_clock::now();
+    {
+      const DenormalsAreZero denormals_are_zero;  // the build runs on this thread and TBB's
+      rtcCommitScene(scene_);
+    }
+    if (rtcGetDeviceError(device_) != RTC_ERROR_NONE) throw_embree_error(device_, "rtcCommitScene");
+    info_.build_ms = elapsed_ms<std::chrono::steady_clock>(start);
+    info_.memory_bytes = std::uint64_t(bytes_.load());
+  }
+
+  /// Copies the mesh's vertices and triangles into one new Embree triangle geometry of scene_.
+  void attach_triangles(const TriangleMesh& mesh) {
     RTCGeometry geometry = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
     auto* vertices = static_cast<float*>(
         rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                3 * sizeof(float), scene.vertices.size()));
+                                3 * sizeof(float), mesh.vertex_count));
     auto* indices = static_cast<std::uint32_t*>(
         rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                3 * sizeof(std::uint32_t), scene.triangles.size()));
+                                3 * sizeof(std::uint32_t), mesh.triangle_count));
     if (!vertices || !indices) {
       rtcReleaseGeometry(geometry);
       throw_embree_error(device_, "allocating geometry buffers");
     }
-    std::memcpy(vertices, scene.vertices.data(), scene.vertices.size() * 3 * sizeof(float));
-    std::memcpy(indices, scene.triangles.data(),
-                scene.triangles.size() * 3 * sizeof(std::uint32_t));
+    copy_vertices(mesh, vertices);
+    copy_indices(mesh, indices);
     rtcCommitGeometry(geometry);
-    rtcAttachGeometry(scene_, geometry);
+    geometry_id_ = rtcAttachGeometry(scene_, geometry);
     rtcReleaseGeometry(geometry);
+    vertex_count_ = mesh.vertex_count;
+  }
+
+  static void copy_vertices(const TriangleMesh& mesh, float* out) {
+    for (std::size_t k = 0; k < mesh.vertex_count; ++k)
+      std::memcpy(out + 3 * k, mesh.vertex(k), 3 * sizeof(float));
+  }
+  static void copy_indices(const TriangleMesh& mesh, std::uint32_t* out) {
+    std::memcpy(out, mesh.indices, mesh.triangle_count * 3 * sizeof(std::uint32_t));
   }
 
   /// Whether Embree may be given the ray. Embree 3 asserts (Debian's build aborts) on a ray
@@ -209,14 +243,17 @@ class EmbreeCpu final : public Accelerator {
   std::atomic<std::int64_t> bytes_{0};
   RTCDevice device_ = nullptr;
   RTCScene scene_ = nullptr;
-  BuildInfo info_;
+  BuildStats info_;
   bool packets_;
+  std::size_t triangle_count_ = 0, vertex_count_ = 0;
+  unsigned geometry_id_ = RTC_INVALID_GEOMETRY_ID;
 };
 
 }  // namespace
 
-std::unique_ptr<Accelerator> make_embree_cpu(const Scene& scene, bool packets) {
-  return std::make_unique<EmbreeCpu>(scene, packets);
+std::unique_ptr<Accelerator> make_embree_cpu(const TriangleMesh& mesh, bool packets,
+                                             const std::string& config) {
+  return std::make_unique<EmbreeCpu>(mesh, packets, config);
 }
 
 }  // namespace irgrid

@@ -40,8 +40,8 @@
 
 #include <cstdint>
 
-#include "core/platform.h"
-#include "core/vec.h"
+#include "irgrid/kernel/platform.h"
+#include "irgrid/kernel/vec.h"
 
 namespace irgrid {
 namespace triangle_box_detail {

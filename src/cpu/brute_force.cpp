@@ -4,26 +4,24 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "core/watertight.h"
 #include "cpu/structures.h"
+#include "irgrid/kernel/watertight.h"
 
 namespace irgrid {
 namespace {
 
 class BruteForceCpu final : public Accelerator {
  public:
-  explicit BruteForceCpu(const Scene& scene) {
-    const auto start = std::chrono::steady_clock::now();
-    gather_triangles(scene, triangles_);
-    info_.build_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    info_.phases_ms["triangles"] = info_.build_ms;
-    info_.memory_bytes = triangles_.size() * sizeof(TriangleVertices);
-  }
+  explicit BruteForceCpu(const TriangleMesh& mesh) { build(mesh); }
 
-  std::string structure() const override { return "brute"; }
-  std::string backend() const override { return "cpu"; }
-  const BuildInfo& build_info() const override { return info_; }
+  Structure structure() const override { return Structure::brute; }
+  Backend backend() const override { return Backend::cpu; }
+  const BuildStats& build_stats() const override { return info_; }
+
+  void rebuild(const TriangleMesh& mesh) override {
+    check_rebuild(mesh, triangles_.size());
+    build(mesh);
+  }
 
   void trace(std::span<const Ray> rays, std::span<Hit> hits, Query query) const override {
     check_trace_spans(rays, hits);
@@ -34,6 +32,13 @@ class BruteForceCpu final : public Accelerator {
   }
 
  private:
+  void build(const TriangleMesh& mesh) {
+    const auto start = std::chrono::steady_clock::now();
+    gather_triangles(mesh, triangles_);
+    info_.build_ms = elapsed_ms<std::chrono::steady_clock>(start);
+    info_.memory_bytes = triangles_.size() * sizeof(TriangleVertices);
+  }
+
   Hit trace_one(const Ray& ray, Query query) const {
     const auto r = make_watertight_ray<float>(ray);
     Hit best;
@@ -48,13 +53,13 @@ class BruteForceCpu final : public Accelerator {
   }
 
   std::vector<TriangleVertices> triangles_;
-  BuildInfo info_;
+  BuildStats info_;
 };
 
 }  // namespace
 
-std::unique_ptr<Accelerator> make_brute_force_cpu(const Scene& scene) {
-  return std::make_unique<BruteForceCpu>(scene);
+std::unique_ptr<Accelerator> make_brute_force_cpu(const TriangleMesh& mesh) {
+  return std::make_unique<BruteForceCpu>(mesh);
 }
 
 }  // namespace irgrid

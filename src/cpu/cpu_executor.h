@@ -37,7 +37,8 @@ class CpuExecutor {
   static constexpr std::uint32_t kLookupBatch = 16;
 
   /// The initial grid's octrees are built one top cell at a time, in cache, into growing host
-  /// buffers (core/build/octree_depth_first.h); the result equals the level-by-level build's.
+  /// buffers (core/construction/octree_depth_first.h); the result equals the level-by-level
+  /// build's.
   static constexpr bool kDepthFirstOctrees = true;
 
   /// Bytes of host memory the build may still take (0 when unknown): the build stops with an

@@ -1,8 +1,6 @@
 // The irregular grid (and the uniform and two-level grids) built and traversed on the CPU.
 #include <algorithm>
 #include <chrono>
-#include <cstdio>
-#include <cstdlib>
 #include <string>
 #include <utility>
 #include <vector>
@@ -10,54 +8,63 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "core/build/compress_cells.h"
-#include "core/grid/traverse.h"
+#include "api/grid_accelerator_base.h"
+#include "core/construction/compress_cells.h"
 #include "cpu/cpu_executor.h"
 #include "cpu/structures.h"
 #include "cpu/walk_policy.h"
-#include "grid_accelerator_base.h"
 #include "irgrid/error.h"
+#include "irgrid/kernel/grid_traverse.h"
 
 namespace irgrid {
 namespace {
 
-/// Prints the wall time of each executor primitive of a build to stderr, longest first: where
-/// each of build_phases_ms goes, one level down (IRGRID_PRIMITIVE_PROFILE, README).
-void print_primitive_profile(const CpuExecutor& exec) {
-  std::vector<std::pair<double, std::string>> by_time;
+/// The wall time of each executor primitive of a build, longest first: where each phase's
+/// time goes, one level down.
+std::vector<PrimitiveTime> primitives_by_time(const CpuExecutor& exec) {
+  std::vector<PrimitiveTime> out;
   for (const auto& [name, ms] : exec.profile_ms())
-    by_time.emplace_back(ms, name);
-  std::sort(by_time.rbegin(), by_time.rend());
-  for (const auto& [ms, name] : by_time)
-    std::fprintf(stderr, "  primitive %-28s %9.2f ms\n", name.c_str(), ms);
+    out.push_back({name, ms});
+  std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.ms > b.ms; });
+  return out;
 }
 
 class GridCpu final : public GridAcceleratorBase {
  public:
-  GridCpu(const Scene& scene, const BuildConfig& config, const PhaseObserver& on_phase)
-      : GridAcceleratorBase(config) {
+  GridCpu(const TriangleMesh& mesh, const AcceleratorOptions& options)
+      : GridAcceleratorBase(options) {
+    first_build(mesh);
+  }
+
+  Backend backend() const override { return Backend::cpu; }
+
+  GridView grid_view() const override { return view(); }
+
+ private:
+  void build(const TriangleMesh& mesh) override {
     const auto start = std::chrono::steady_clock::now();
     CpuExecutor exec;
     MemoryMeter::reset_peak();
     const std::int64_t before = MemoryMeter::current();
-    gather_triangles(scene, grid_.triangles);
-    empty_scene_ = grid_.triangles.empty();
-    if (!empty_scene_) {
-      build_grid_and_compress(exec, grid_, compact_cells_, config, info_.phases_ms, on_phase);
+    // The arrays of the last grid go first, so a rebuild's peak is one grid's, not two.
+    grid_ = {};
+    compact_cells_ = {};
+    gather_triangles(mesh, grid_.triangles);
+    if (!grid_.triangles.empty()) {
+      build_grid_and_compress(exec, grid_, compact_cells_, options_.grid, info_.phase_ms,
+                              options_.on_phase);
       if (!compact_cells_.empty()) grid_.cells = {};
     }
-    info_.build_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    info_.build_ms = elapsed_ms<std::chrono::steady_clock>(start);
     record_grid_statistics(grid_.info, grid_.top_level_refs, !compact_cells_.empty(),
-                           grid_.empty_radii.size(), info_);
-    info_.counts["peak_build_bytes"] = std::uint64_t(MemoryMeter::peak() - before);
-    if (std::getenv("IRGRID_PRIMITIVE_PROFILE")) print_primitive_profile(exec);
+                           grid_.empty_radii.size(), options_.grid,
+                           std::uint64_t(MemoryMeter::peak() - before), info_);
+    if (options_.profile_primitives) info_.primitives = primitives_by_time(exec);
   }
 
-  std::string backend() const override { return "cpu"; }
-
- private:
-  GridView view() const { return grid_view(grid_, compact_cells_.data()); }
+  GridView view() const {
+    return make_grid_view(grid_, compact_cells_.empty() ? nullptr : compact_cells_.data());
+  }
 
   void trace_grid(std::span<const Ray> rays, std::span<Hit> hits, std::span<RayWork> work,
                   Query query) const override {
@@ -82,8 +89,8 @@ class GridCpu final : public GridAcceleratorBase {
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(0, rays.size(), 1024), [&](const auto& range) {
           const std::size_t first = range.begin(), count = range.size();
-          trace_chunk<kQuery, CellT>(view, info_.memory_bytes, rays.subspan(first, count),
-                                     hits.subspan(first, count),
+          trace_chunk<kQuery, CellT>(view, info_.memory_bytes, options_.cpu_walk,
+                                     rays.subspan(first, count), hits.subspan(first, count),
                                      work.empty() ? work : work.subspan(first, count));
         });
   }
@@ -94,9 +101,9 @@ class GridCpu final : public GridAcceleratorBase {
 
 }  // namespace
 
-std::unique_ptr<Accelerator> make_grid_cpu(const Scene& scene, const BuildConfig& config,
-                                           const PhaseObserver& on_phase) {
-  return std::make_unique<GridCpu>(scene, config, on_phase);
+std::unique_ptr<Accelerator> make_grid_cpu(const TriangleMesh& mesh,
+                                           const AcceleratorOptions& options) {
+  return std::make_unique<GridCpu>(mesh, options);
 }
 
 }  // namespace irgrid

@@ -8,14 +8,14 @@
 // so the reads of different rays are independent and in flight together (memory-level
 // parallelism; the same idea as the coroutine-interleaved index lookups of Psaropoulos et al.,
 // "Interleaving with Coroutines", VLDB 2017). Each ray follows exactly the arithmetic of
-// traverse_grid (core/grid/traverse.h), so the hits are the same, bit for bit.
+// traverse_grid (irgrid/kernel/grid_traverse.h), so the hits are the same, bit for bit.
 #pragma once
 
 #include <cstdint>
 #include <span>
 
-#include "core/grid/traverse.h"
 #include "irgrid/accelerator.h"
+#include "irgrid/kernel/grid_traverse.h"
 
 namespace irgrid {
 

@@ -1,14 +1,14 @@
 // cpu/simd_walk.h: grid walks in the lanes of SIMD registers, one ray per lane: 8 lanes with
 // AVX2, 16 with AVX-512.
 //
-// The walk of core/grid/traverse.h spends most of its instructions on bookkeeping that is the
-// same for every ray (the voxel-map descent, the exit distances, the step) and on triangle tests
-// that a cell's few triangles cannot fill a SIMD register with. Running one ray per lane instead
-// (as ISPC's "programs" or Embree's ray streams do) gives every step and every test a register
-// of rays at once: the map and the triangles are read with gathers, the exit and step arithmetic
-// and the watertight triangle test (Woop et al. 2013) are lane-wise, and the tests of all lanes'
-// cells are packed into full batches. Only a test with an edge function of exactly zero (redone
-// in double) or a NaN falls back to the scalar test. Every lane repeats the scalar walk's
+// The walk of irgrid/kernel/grid_traverse.h spends most of its instructions on bookkeeping that is
+// the same for every ray (the voxel-map descent, the exit distances, the step) and on triangle
+// tests that a cell's few triangles cannot fill a SIMD register with. Running one ray per lane
+// instead (as ISPC's "programs" or Embree's ray streams do) gives every step and every test a
+// register of rays at once: the map and the triangles are read with gathers, the exit and step
+// arithmetic and the watertight triangle test (Woop et al. 2013) are lane-wise, and the tests of
+// all lanes' cells are packed into full batches. Only a test with an edge function of exactly zero
+// (redone in double) or a NaN falls back to the scalar test. Every lane repeats the scalar walk's
 // operations in the same order, so the hits and work counters are those of traverse_grid, bit
 // for bit, whatever the instruction set. The walk is written once (cpu/simd_walk_lanes.h) over
 // the lane operations of each instruction set (cpu/simd_lanes_avx2.h, cpu/simd_lanes_avx512.h).
@@ -16,8 +16,8 @@
 
 #include <span>
 
-#include "core/grid/traverse.h"
 #include "irgrid/accelerator.h"
+#include "irgrid/kernel/grid_traverse.h"
 
 namespace irgrid {
 

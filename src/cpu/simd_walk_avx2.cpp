@@ -10,13 +10,13 @@
 #include <cstdint>
 #include <span>
 
-#include "core/grid/traverse.h"
 #include "cpu/simd_walk.h"
 #include "irgrid/accelerator.h"
+#include "irgrid/kernel/grid_traverse.h"
 
 #pragma GCC push_options
 #pragma GCC target("avx2")
-// core/watertight.h's t_needs_double is baseline code (included above) that the walk
+// irgrid/kernel/watertight.h's t_needs_double is baseline code (included above) that the walk
 // instantiates with AVX2 vectors and always inlines; GCC still warns, where the template is
 // instantiated at the end of this file, that an out-of-line copy would return its lane mask (a
 // vector here, a mask register with AVX-512) differently.

@@ -17,9 +17,9 @@
 #include <cstdint>
 #include <span>
 
-#include "core/grid/traverse.h"
 #include "cpu/simd_walk.h"
 #include "irgrid/accelerator.h"
+#include "irgrid/kernel/grid_traverse.h"
 
 #pragma GCC push_options
 #pragma GCC target("avx2,avx512f")

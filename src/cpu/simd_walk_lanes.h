@@ -3,9 +3,10 @@
 // 16 lanes). Each instruction set's file includes this after its target pragma and instantiates
 // it with its V, so every function here is compiled for that instruction set alone.
 //
-// Every lane-wise operation below mirrors one line of core/grid/traverse.h or core/watertight.h
-// with the same float operations in the same order (no FMA: -ffp-contract=off), and V::min /
-// V::max return their second operand on NaN exactly as min_fast(a, b) = a < b ? a : b does.
+// Every lane-wise operation below mirrors one line of irgrid/kernel/grid_traverse.h or
+// irgrid/kernel/watertight.h with the same float operations in the same order (no FMA:
+// -ffp-contract=off), and V::min / V::max return their second operand on NaN exactly as min_fast(a,
+// b) = a < b ? a : b does.
 #pragma once
 
 #include <immintrin.h>
@@ -15,8 +16,8 @@
 #include <cstdint>
 #include <span>
 
-#include "core/grid/traverse.h"
 #include "irgrid/accelerator.h"
+#include "irgrid/kernel/grid_traverse.h"
 
 namespace irgrid::simd {
 

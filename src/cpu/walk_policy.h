@@ -17,17 +17,13 @@
 
 #include <cmath>
 #include <cstddef>
-#include <cstdio>
-#include <cstdlib>
-#include <cstring>
 #include <optional>
 #include <span>
-#include <tuple>
 
-#include "core/grid/traverse.h"
 #include "cpu/interleaved_walk.h"
 #include "cpu/simd_walk.h"
 #include "irgrid/accelerator.h"
+#include "irgrid/kernel/grid_traverse.h"
 
 namespace irgrid {
 
@@ -60,53 +56,18 @@ inline bool rays_are_coherent(const GridInfo& info, std::span<const Ray> rays) {
   return 4 * coherent >= 3 * sampled;
 }
 
-/// The ways of walking a chunk of rays. The default is the SIMD walk of the widest instruction
-/// set the CPU has (AVX-512, then AVX2), and the choice by coherence and grid size where it has
-/// neither; the environment variable IRGRID_CPU_WALK=simd|avx512|avx2|single|interleaved forces
-/// one, to compare them (the hits are the same).
-enum class CpuWalk { simd, avx512, avx2, one_by_one, interleaved };
-
-/// The walk IRGRID_CPU_WALK asks for (read once), or CpuWalk::simd when it is unset; an
-/// unknown value, or an instruction set this CPU lacks, is ignored with a warning on stderr.
-inline CpuWalk cpu_walk_choice() {
-  static const CpuWalk choice = [] {
-    const char* value = std::getenv("IRGRID_CPU_WALK");
-    if (value == nullptr || !std::strcmp(value, "simd")) return CpuWalk::simd;
-    if (!std::strcmp(value, "single")) return CpuWalk::one_by_one;
-    if (!std::strcmp(value, "interleaved")) return CpuWalk::interleaved;
-    for (const auto& [name, walk, isa] : {std::tuple{"avx512", CpuWalk::avx512, SimdIsa::avx512},
-                                          std::tuple{"avx2", CpuWalk::avx2, SimdIsa::avx2}}) {
-      if (std::strcmp(value, name)) continue;
-      if (cpu_has(isa)) return walk;
-      std::fprintf(stderr, "warning: IRGRID_CPU_WALK=%s: this CPU has no %s; ignored\n", value,
-                   name);
-      return CpuWalk::simd;
-    }
-    std::fprintf(stderr,
-                 "warning: IRGRID_CPU_WALK=%s is not simd, avx512, avx2, single or interleaved; "
-                 "ignored\n",
-                 value);
-    return CpuWalk::simd;
-  }();
-  return choice;
-}
-
-/// The instruction set `walk` runs its SIMD lanes in on this CPU (for grids that fit the SIMD
-/// walk); none where it walks one ray at a time or interleaved.
+/// The instruction set `walk` (AcceleratorOptions::cpu_walk) runs its SIMD lanes in on this CPU,
+/// for grids that fit the SIMD walk; none where it walks one ray at a time or interleaved, or
+/// where the CPU lacks the instruction set.
 inline std::optional<SimdIsa> simd_isa_of(CpuWalk walk) {
-  if (walk == CpuWalk::one_by_one || walk == CpuWalk::interleaved) return std::nullopt;
-  if (walk != CpuWalk::avx2 && cpu_has(SimdIsa::avx512)) return SimdIsa::avx512;
+  if (walk == CpuWalk::single || walk == CpuWalk::interleaved) return std::nullopt;
+  if (walk == CpuWalk::avx512)
+    return cpu_has(SimdIsa::avx512) ? std::optional(SimdIsa::avx512) : std::nullopt;
+  if (walk == CpuWalk::avx2)
+    return cpu_has(SimdIsa::avx2) ? std::optional(SimdIsa::avx2) : std::nullopt;
+  if (cpu_has(SimdIsa::avx512)) return SimdIsa::avx512;
   if (cpu_has(SimdIsa::avx2)) return SimdIsa::avx2;
   return std::nullopt;
-}
-
-/// The walk trace_chunk takes for grids that fit the SIMD walk (MachineInfo::cpu_walk).
-inline const char* cpu_walk_name() {
-  const CpuWalk walk = cpu_walk_choice();
-  if (walk == CpuWalk::one_by_one) return "single";
-  if (walk == CpuWalk::interleaved) return "interleaved";
-  const auto isa = simd_isa_of(walk);
-  return !isa ? "scalar" : *isa == SimdIsa::avx512 ? "avx512" : "avx2";
 }
 
 /// Traces rays[i] into hits[i] one ray at a time (work[i] too when work is not empty).
@@ -127,15 +88,14 @@ void trace_one_by_one(const GridView& grid, std::span<const Ray> rays, std::span
 /// Traces a chunk of rays the way that suits it (see the top of this file); `grid_bytes` is the
 /// size of the grid's arrays. The hits and the work do not depend on the choice.
 template <Query kQuery, typename CellT>
-void trace_chunk(const GridView& grid, std::size_t grid_bytes, std::span<const Ray> rays,
-                 std::span<Hit> hits, std::span<RayWork> work) {
-  const CpuWalk walk = cpu_walk_choice();
+void trace_chunk(const GridView& grid, std::size_t grid_bytes, CpuWalk walk,
+                 std::span<const Ray> rays, std::span<Hit> hits, std::span<RayWork> work) {
   const auto isa = simd_walk_fits(grid.info) ? simd_isa_of(walk) : std::nullopt;
   if (isa == SimdIsa::avx512)
     return trace_simd_lanes<SimdIsa::avx512, kQuery, CellT>(grid, rays, hits, work);
   if (isa == SimdIsa::avx2)
     return trace_simd_lanes<SimdIsa::avx2, kQuery, CellT>(grid, rays, hits, work);
-  if (walk == CpuWalk::one_by_one) return trace_one_by_one<kQuery, CellT>(grid, rays, hits, work);
+  if (walk == CpuWalk::single) return trace_one_by_one<kQuery, CellT>(grid, rays, hits, work);
   if (walk == CpuWalk::interleaved) return trace_interleaved<kQuery, CellT>(grid, rays, hits, work);
   if (grid_bytes <= kCoherentWalkMaxGridBytes && rays_are_coherent(grid.info, rays))
     trace_one_by_one<kQuery, CellT>(grid, rays, hits, work);

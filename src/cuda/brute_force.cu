@@ -1,9 +1,10 @@
-// The brute-force tracer on the GPU: the same watertight test as the CPU (core/watertight.h).
+// The brute-force tracer on the GPU: the same watertight test as the CPU
+// (irgrid/kernel/watertight.h).
 #include <chrono>
 
-#include "core/watertight.h"
 #include "cpu/structures.h"
 #include "cuda/device_buffer.cuh"
+#include "irgrid/kernel/watertight.h"
 
 namespace irgrid {
 namespace {
@@ -27,21 +28,19 @@ __global__ void __launch_bounds__(128)
 
 class BruteForceCuda final : public Accelerator {
  public:
-  explicit BruteForceCuda(const Scene& scene) {
-    const auto start = std::chrono::steady_clock::now();
-    std::vector<TriangleVertices> host;
-    gather_triangles(scene, host);
-    triangles_ = cuda::DeviceBuffer<TriangleVertices>(host.size(), "brute-force triangles");
-    triangles_.upload(host.data(), host.size());
-    info_.build_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    info_.phases_ms["upload"] = info_.build_ms;
-    info_.memory_bytes = host.size() * sizeof(TriangleVertices);
+  explicit BruteForceCuda(const TriangleMesh& mesh) {
+    triangles_ = cuda::DeviceBuffer<TriangleVertices>(mesh.triangle_count, "brute-force triangles");
+    upload(mesh);
   }
 
-  std::string structure() const override { return "brute"; }
-  std::string backend() const override { return "cuda"; }
-  const BuildInfo& build_info() const override { return info_; }
+  Structure structure() const override { return Structure::brute; }
+  Backend backend() const override { return Backend::cuda; }
+  const BuildStats& build_stats() const override { return info_; }
+
+  void rebuild(const TriangleMesh& mesh) override {
+    check_rebuild(mesh, triangles_.size());
+    upload(mesh);  // into the same device buffer
+  }
 
   void trace(std::span<const Ray> rays, std::span<Hit> hits, Query query) const override {
     check_trace_spans(rays, hits);
@@ -49,23 +48,43 @@ class BruteForceCuda final : public Accelerator {
     cuda::DeviceBuffer<Ray> d_rays(rays.size(), "rays");
     cuda::DeviceBuffer<Hit> d_hits(hits.size(), "hits");
     d_rays.upload(rays.data(), rays.size());
-    const unsigned blocks = unsigned((rays.size() + 127) / 128);
-    brute_force_kernel<<<blocks, 128>>>(d_rays.data(), d_hits.data(), rays.size(),
-                                        triangles_.data(), std::uint32_t(triangles_.size()),
-                                        query == Query::any);
+    launch(d_rays.data(), d_hits.data(), rays.size(), query, nullptr);
     IRGRID_CUDA_CHECK_LAUNCH("brute_force_kernel");
     d_hits.download(hits.data(), hits.size());
   }
 
+  void trace_device(const Ray* d_rays, Hit* d_hits, std::size_t count, Query query,
+                    CUstream_st* stream) const override {
+    if (count > 0) launch(d_rays, d_hits, count, query, stream);
+  }
+
  private:
+  void upload(const TriangleMesh& mesh) {
+    const auto start = std::chrono::steady_clock::now();
+    std::vector<TriangleVertices> host;
+    gather_triangles(mesh, host);
+    triangles_.upload(host.data(), host.size());
+    info_.build_ms = elapsed_ms<std::chrono::steady_clock>(start);
+    info_.memory_bytes = host.size() * sizeof(TriangleVertices);
+  }
+
+  void launch(const Ray* d_rays, Hit* d_hits, std::size_t count, Query query,
+              cudaStream_t stream) const {
+    const unsigned blocks = unsigned((count + 127) / 128);
+    brute_force_kernel<<<blocks, 128, 0, stream>>>(d_rays, d_hits, count, triangles_.data(),
+                                                   std::uint32_t(triangles_.size()),
+                                                   query == Query::any);
+    IRGRID_CUDA_CHECK_ASYNC_LAUNCH("brute_force_kernel");
+  }
+
   cuda::DeviceBuffer<TriangleVertices> triangles_;
-  BuildInfo info_;
+  BuildStats info_;
 };
 
 }  // namespace
 
-std::unique_ptr<Accelerator> make_brute_force_cuda(const Scene& scene) {
-  return std::make_unique<BruteForceCuda>(scene);
+std::unique_ptr<Accelerator> make_brute_force_cuda(const TriangleMesh& mesh) {
+  return std::make_unique<BruteForceCuda>(mesh);
 }
 
 }  // namespace irgrid

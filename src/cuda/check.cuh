@@ -29,3 +29,7 @@ std::string memory_summary();
     IRGRID_CUDA_CHECK(cudaGetLastError());                                    \
     ::irgrid::cuda::check(cudaDeviceSynchronize(), name, __FILE__, __LINE__); \
   } while (0)
+/// After a kernel launch queued for the caller (trace_device): the launch error only, without
+/// waiting for the kernel; its own errors surface at the caller's next synchronisation.
+#define IRGRID_CUDA_CHECK_ASYNC_LAUNCH(name) \
+  ::irgrid::cuda::check(cudaGetLastError(), name, __FILE__, __LINE__)

@@ -3,12 +3,12 @@
 #include <chrono>
 #include <mutex>
 
-#include "core/build/compress_cells.h"
-#include "core/grid/traverse.h"
+#include "api/grid_accelerator_base.h"
+#include "core/construction/compress_cells.h"
 #include "cpu/structures.h"
 #include "cuda/cuda_executor.cuh"
 #include "cuda/grid_cuda.h"
-#include "grid_accelerator_base.h"
+#include "irgrid/kernel/grid_traverse.h"
 
 namespace irgrid {
 namespace {
@@ -32,18 +32,24 @@ __global__ void __launch_bounds__(kTraceThreads)
   }
 }
 
+/// Writes a miss into each of the first `count` hits (a grid over no triangles).
+__global__ void fill_misses_kernel(Hit* hits, std::size_t count) {
+  const std::size_t i = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  if (i < count) hits[i] = Hit{};
+}
+
 /// build_grid_and_compress, then waits for the device (kernel errors surface here).
 void build_on_device(CudaExecutor& exec, GridArrays<CudaExecutor>& grid,
                      CudaExecutor::Buffer<CompactCell>& compact, const BuildConfig& config,
-                     std::map<std::string, double>& phases_ms, const PhaseObserver& on_phase = {}) {
+                     PhaseTimes& phases_ms, const PhaseObserver& on_phase = {}) {
   build_grid_and_compress(exec, grid, compact, config, phases_ms, on_phase);
   exec.synchronize();
 }
 
 CudaExecutor::Buffer<TriangleVertices> upload_triangles(const CudaExecutor& exec,
-                                                        const Scene& scene) {
+                                                        const TriangleMesh& mesh) {
   std::vector<TriangleVertices> host;
-  gather_triangles(scene, host);
+  gather_triangles(mesh, host);
   auto device = exec.allocate<TriangleVertices>(host.size());
   // On the executor's stream: after its earlier work on a recycled block, before the build.
   device.upload(host.data(), host.size(), exec.stream());
@@ -59,28 +65,57 @@ std::vector<T> to_host(const cuda::DeviceBuffer<T>& buffer) {
 
 class GridCuda final : public GridAcceleratorBase {
  public:
-  GridCuda(const Scene& scene, const BuildConfig& config, const PhaseObserver& on_phase)
-      : GridAcceleratorBase(config) {
-    const auto start = std::chrono::steady_clock::now();
-    grid_.triangles = upload_triangles(exec_, scene);
-    exec_.pool().reset_peak();
-    empty_scene_ = grid_.triangles.empty();
-    if (!empty_scene_) {
-      build_on_device(exec_, grid_, compact_cells_, config, info_.phases_ms, on_phase);
-      if (!compact_cells_.empty()) grid_.cells.reset();
-    }
+  GridCuda(const TriangleMesh& mesh, const AcceleratorOptions& options)
+      : GridAcceleratorBase(options) {
+    first_build(mesh);
+    // After a one-off build the cached blocks would hold the build's peak for the grid's life;
+    // rebuilds keep them, so that later frames take every block from the cache.
     exec_.pool().trim();
-    info_.build_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    record_grid_statistics(grid_.info, grid_.top_level_refs, !compact_cells_.empty(),
-                           grid_.empty_radii.size(), info_);
-    info_.counts["peak_build_bytes"] = exec_.pool().peak();
   }
 
-  std::string backend() const override { return "cuda"; }
+  Backend backend() const override { return Backend::cuda; }
+
+  GridView grid_view() const override { return view(); }
+
+  void trace_device(const Ray* d_rays, Hit* d_hits, std::size_t count, Query query,
+                    CUstream_st* stream) const override {
+    if (count == 0) return;
+    if (empty_scene_) {
+      fill_misses_kernel<<<blocks_for(count), kTraceThreads, 0, stream>>>(d_hits, count);
+      IRGRID_CUDA_CHECK_ASYNC_LAUNCH("miss fill kernel");
+      return;
+    }
+    launch(query, !compact_cells_.empty(), d_rays, d_hits, nullptr, count, stream);
+    IRGRID_CUDA_CHECK_ASYNC_LAUNCH("grid traversal kernel");
+  }
 
  private:
-  GridView view() const { return grid_view(grid_, compact_cells_.data()); }
+  void build(const TriangleMesh& mesh) override {
+    const auto start = std::chrono::steady_clock::now();
+    const std::uint64_t fresh_before = exec_.pool().fresh_allocations();
+    // The last grid's blocks go back to the pool first, for this build to take them again.
+    grid_ = {};
+    compact_cells_ = {};
+    grid_.triangles = upload_triangles(exec_, mesh);
+    exec_.pool().reset_peak();
+    if (!grid_.triangles.empty()) {
+      build_on_device(exec_, grid_, compact_cells_, options_.grid, info_.phase_ms,
+                      options_.on_phase);
+      if (!compact_cells_.empty()) grid_.cells.reset();
+    }
+    info_.build_ms = elapsed_ms<std::chrono::steady_clock>(start);
+    record_grid_statistics(grid_.info, grid_.top_level_refs, !compact_cells_.empty(),
+                           grid_.empty_radii.size(), options_.grid, exec_.pool().peak(), info_);
+    info_.grid->fresh_allocations = exec_.pool().fresh_allocations() - fresh_before;
+  }
+
+  GridView view() const {
+    return make_grid_view(grid_, compact_cells_.empty() ? nullptr : compact_cells_.data());
+  }
+
+  static unsigned blocks_for(std::size_t count) {
+    return unsigned((count + kTraceThreads - 1) / kTraceThreads);
+  }
 
   /// Uploads the rays, runs the kernel for this grid's cell layout and query, downloads the
   /// hits. One batch at a time: the staging buffers are shared, so callers are serialised.
@@ -91,32 +126,40 @@ class GridCuda final : public GridAcceleratorBase {
     reserve(hits_, rays.size(), "hits");
     if (!work.empty()) reserve(work_, rays.size(), "per-ray work counters");
     rays_.upload(rays.data(), rays.size());
-    const bool compact = !compact_cells_.empty(), counted = !work.empty();
-    if (query == Query::closest)
-      launch<Query::closest>(compact, counted, rays.size());
-    else
-      launch<Query::any>(compact, counted, rays.size());
+    launch(query, !compact_cells_.empty(), rays_.data(), hits_.data(),
+           work.empty() ? nullptr : work_.data(), rays.size(), nullptr);
+    IRGRID_CUDA_CHECK_LAUNCH("grid traversal kernel");
     hits_.download(hits.data(), hits.size());
-    if (counted) work_.download(work.data(), work.size());
+    if (!work.empty()) work_.download(work.data(), work.size());
+  }
+
+  /// Queues the traversal kernel for this grid's cell layout and `query` on `stream`; counts
+  /// the work per ray when `work` is not null.
+  void launch(Query query, bool compact, const Ray* rays, Hit* hits, RayWork* work,
+              std::size_t count, cudaStream_t stream) const {
+    if (query == Query::closest)
+      launch_query<Query::closest>(compact, rays, hits, work, count, stream);
+    else
+      launch_query<Query::any>(compact, rays, hits, work, count, stream);
   }
 
   template <Query kQuery>
-  void launch(bool compact, bool counted, std::size_t count) const {
-    const auto blocks = unsigned((count + kTraceThreads - 1) / kTraceThreads);
+  void launch_query(bool compact, const Ray* rays, Hit* hits, RayWork* work, std::size_t count,
+                    cudaStream_t stream) const {
+    const unsigned blocks = blocks_for(count);
     const GridView grid = view();
-    if (compact && counted)
+    if (compact && work)
       trace_kernel<kQuery, CompactCell, true>
-          <<<blocks, kTraceThreads>>>(grid, rays_.data(), hits_.data(), work_.data(), count);
+          <<<blocks, kTraceThreads, 0, stream>>>(grid, rays, hits, work, count);
     else if (compact)
       trace_kernel<kQuery, CompactCell, false>
-          <<<blocks, kTraceThreads>>>(grid, rays_.data(), hits_.data(), nullptr, count);
-    else if (counted)
+          <<<blocks, kTraceThreads, 0, stream>>>(grid, rays, hits, nullptr, count);
+    else if (work)
       trace_kernel<kQuery, Cell, true>
-          <<<blocks, kTraceThreads>>>(grid, rays_.data(), hits_.data(), work_.data(), count);
+          <<<blocks, kTraceThreads, 0, stream>>>(grid, rays, hits, work, count);
     else
       trace_kernel<kQuery, Cell, false>
-          <<<blocks, kTraceThreads>>>(grid, rays_.data(), hits_.data(), nullptr, count);
-    IRGRID_CUDA_CHECK_LAUNCH("grid traversal kernel");
+          <<<blocks, kTraceThreads, 0, stream>>>(grid, rays, hits, nullptr, count);
   }
 
   template <typename T>
@@ -138,12 +181,13 @@ class GridCuda final : public GridAcceleratorBase {
 
 }  // namespace
 
-std::unique_ptr<Accelerator> make_grid_cuda(const Scene& scene, const BuildConfig& config,
-                                            const PhaseObserver& on_phase) {
-  return std::make_unique<GridCuda>(scene, config, on_phase);
+std::unique_ptr<Accelerator> make_grid_cuda(const TriangleMesh& mesh,
+                                            const AcceleratorOptions& options) {
+  return std::make_unique<GridCuda>(mesh, options);
 }
 
-HostGridArrays build_grid_cuda_arrays(const Scene& scene, const BuildConfig& config, int builds) {
+HostGridArrays build_grid_cuda_arrays(const TriangleMesh& mesh, const BuildConfig& config,
+                                      int builds) {
   if (builds < 1)
     throw Error(ErrorCode::invalid_argument, "build_grid_cuda_arrays: builds must be >= 1");
   CudaExecutor exec;
@@ -152,8 +196,8 @@ HostGridArrays build_grid_cuda_arrays(const Scene& scene, const BuildConfig& con
     const std::uint64_t fresh_before = exec.pool().fresh_allocations();
     GridArrays<CudaExecutor> grid;
     CudaExecutor::Buffer<CompactCell> compact;
-    grid.triangles = upload_triangles(exec, scene);
-    std::map<std::string, double> phases;
+    grid.triangles = upload_triangles(exec, mesh);
+    PhaseTimes phases;
     build_on_device(exec, grid, compact, config, phases);
     if (b + 1 < builds) continue;
     out.info = grid.info;

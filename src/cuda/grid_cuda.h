@@ -4,9 +4,9 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/grid/layout.h"
 #include "irgrid/build_config.h"
-#include "irgrid/scene.h"
+#include "irgrid/kernel/grid_layout.h"
+#include "irgrid/mesh.h"
 
 namespace irgrid {
 
@@ -23,9 +23,10 @@ struct HostGridArrays {
   std::uint64_t fresh_allocations_last_build = 0;
 };
 
-/// Builds the grid of `scene` `builds` times (>= 1) on the GPU with one executor, dropping each
+/// Builds the grid of `mesh` `builds` times (>= 1) on the GPU with one executor, dropping each
 /// result before the next, and returns the arrays of the last build. Throws Error(no_device)
 /// without a GPU.
-HostGridArrays build_grid_cuda_arrays(const Scene& scene, const BuildConfig& config, int builds);
+HostGridArrays build_grid_cuda_arrays(const TriangleMesh& mesh, const BuildConfig& config,
+                                      int builds);
 
 }  // namespace irgrid

@@ -6,14 +6,16 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "common.h"
 #include "config_json.h"
 #include "irgrid/error.h"
+#include "irgrid/io/machine.h"
 #include "irgrid/system.h"
 
 namespace irgrid::cli {
 
 void print_bench_table(const BenchResult& r) {
-  const auto machine = machine_info();
+  const auto machine = machine_info(environment_options().cpu_walk);
   fmt::print(
       "scene {}: {} triangles | structure {} on {} | build {:.2f} ms | memory {:.2f} MiB "
       "({:.1f} B/triangle)\n",
@@ -80,14 +82,9 @@ nlohmann::json result_json(const BenchResult& r) {
   nlohmann::json out = {{"scene", r.scene},
                         {"triangles", r.triangles},
                         {"backend", r.backend},
-                        {"structure", r.structure},
-                        {"build_ms", r.build.build_ms},
-                        {"build_phases_ms", r.build.phases_ms},
-                        {"memory_bytes", r.build.memory_bytes},
-                        {"memory_breakdown_bytes", r.build.bytes},
-                        {"counts", r.build.counts},
-                        {"runs", runs}};
-  if (r.grid) add_grid_config_json(out, r.structure, r.build, *r.grid);
+                        {"structure", r.structure}};
+  add_build_stats_json(out, parse_structure(r.structure), r.build, r.grid);
+  out["runs"] = runs;
   return out;
 }
 
@@ -110,7 +107,7 @@ nlohmann::json settings_json(const BenchSettings& s) {
 
 void write_bench_json(const std::vector<BenchResult>& results, const std::string& scene_file,
                       const BenchSettings& settings, const std::string& path) {
-  const auto machine = machine_info();
+  const auto machine = machine_info(environment_options().cpu_walk);
   nlohmann::json out = result_json(results.front());
   out["scene_file"] = scene_file;
   out["settings"] = settings_json(settings);

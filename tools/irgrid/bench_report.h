@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "irgrid/accelerator.h"
-#include "irgrid/rays.h"
+#include "irgrid/io/rays.h"
 
 namespace irgrid::cli {
 
@@ -27,7 +27,7 @@ struct BenchResult {
   std::string scene;
   std::uint64_t triangles = 0;
   std::string structure, backend;
-  BuildInfo build;                  ///< build_ms is the median over the timed builds
+  BuildStats build;                 ///< build_ms is the median over the timed builds
   std::optional<BuildConfig> grid;  ///< the grid parameters, for the grid structures only
   std::vector<BenchRun> runs;
 };

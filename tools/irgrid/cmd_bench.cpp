@@ -10,11 +10,11 @@
 #include "bench_report.h"
 #include "commands.h"
 #include "common.h"
-#include "irgrid/camera.h"
 #include "irgrid/error.h"
-#include "irgrid/rays.h"
+#include "irgrid/io/camera.h"
+#include "irgrid/io/rays.h"
+#include "irgrid/io/validate.h"
 #include "irgrid/system.h"
-#include "irgrid/validate.h"
 #include "progress.h"
 
 namespace irgrid::cli {
@@ -36,7 +36,7 @@ double median(std::vector<double> values) {
 /// One structure under test: "name" or "name@backend" of --compare.
 struct Contender {
   AcceleratorOptions options;
-  std::string structure;
+  Structure structure = kDefaultStructure;
   std::unique_ptr<Accelerator> accelerator;
   BenchResult result;
 };
@@ -44,28 +44,28 @@ struct Contender {
 std::vector<Contender> parse_contenders(const BenchOptions& o) {
   std::vector<std::string> names = split_list(o.compare);
   if (names.size() == 1 && names.front() == "all") {  // every structure built in but brute force
-    names = available_structures();
-    names.erase(std::find(names.begin(), names.end(), "brute"));
+    names.clear();
+    for (const Structure structure : available_structures())
+      if (structure != Structure::brute) names.push_back(to_string(structure));
     // With a GPU visible (and --backend auto or cuda), the GPU grid leads and the rest run on
     // the CPU, so one command compares both backends.
     if (o.structure.backend != "cpu" && !cuda_status().gpus.empty()) {
       for (auto& name : names)
         name += "@cpu";
-      names.insert(names.begin(), default_structure() + "@cuda");
+      names.insert(names.begin(), std::string(to_string(kDefaultStructure)) + "@cuda");
     }
   }
   if (names.empty() && !o.compare.empty())
     throw Error(ErrorCode::invalid_argument,
                 "--compare '" + o.compare + "' names no structure (e.g. irregular,embree)");
-  if (names.empty())
-    names.push_back(o.structure.structure.empty() ? default_structure() : o.structure.structure);
+  if (names.empty()) names.push_back(to_string(o.structure.parsed_structure()));
   std::vector<Contender> contenders;
   for (const auto& name : names) {
     Contender c;
     const auto at = name.find('@');
-    c.structure = name.substr(0, at);
-    c.options.backend = at == std::string::npos ? o.structure.backend : name.substr(at + 1);
-    c.options.grid = o.structure.grid;
+    c.structure = parse_structure(name.substr(0, at));
+    c.options = accelerator_options(
+        at == std::string::npos ? o.structure.backend : name.substr(at + 1), o.structure.grid);
     contenders.push_back(std::move(c));
   }
   return contenders;
@@ -74,24 +74,24 @@ std::vector<Contender> parse_contenders(const BenchOptions& o) {
 /// Builds once to warm up, then `repeat` more times; keeps the last and the median time (the
 /// warm-up's time when repeat is 0).
 void timed_build(const Scene& scene, int repeat, Contender& c) {
-  Progress progress(fmt::format("building {} ({} times)", c.structure, repeat + 1),
-                    std::uint64_t(repeat + 1) * kGridBuildPhases);
+  Progress progress(fmt::format("building {} ({} times)", to_string(c.structure), repeat + 1),
+                    std::uint64_t(repeat + 1) * kBuildPhaseCount);
   AcceleratorOptions options = c.options;
-  options.on_phase = [&](const char*) { progress.advance(1); };
-  c.accelerator = make_accelerator(scene, c.structure, options);
+  options.on_phase = [&](BuildPhase) { progress.advance(1); };
+  c.accelerator = make_structure(scene, c.structure, options);
   std::vector<double> times;
   for (int i = 0; i < repeat; ++i) {
     c.accelerator.reset();
-    c.accelerator = make_accelerator(scene, c.structure, options);
-    times.push_back(c.accelerator->build_info().build_ms);
+    c.accelerator = make_structure(scene, c.structure, options);
+    times.push_back(c.accelerator->build_stats().build_ms);
   }
-  if (times.empty()) times.push_back(c.accelerator->build_info().build_ms);  // the warm-up's
+  if (times.empty()) times.push_back(c.accelerator->build_stats().build_ms);  // the warm-up's
   progress.done();
   c.result = {scene.name,
               scene.triangle_count(),
-              c.accelerator->structure(),
-              c.accelerator->backend(),
-              c.accelerator->build_info(),
+              to_string(c.accelerator->structure()),
+              to_string(c.accelerator->backend()),
+              c.accelerator->build_stats(),
               {},
               {}};
   if (c.accelerator->counts_work()) c.result.grid = c.options.grid;
@@ -107,7 +107,7 @@ BenchRun measure(const Scene& scene, const ReferenceTracer* reference,
   std::vector<Hit> hits(rays.size());
   trace_with_progress(
       accelerator, rays, hits, query,
-      fmt::format("{} {} view {} warm-up", accelerator.structure(), run.kind, run.view));
+      fmt::format("{} {} view {} warm-up", to_string(accelerator.structure()), run.kind, run.view));
   std::vector<double> times;
   for (int i = 0; i < o.repeat; ++i) {
     const auto start = std::chrono::steady_clock::now();
@@ -133,8 +133,8 @@ BenchRun measure(const Scene& scene, const ReferenceTracer* reference,
     run.checked = validation.checked;
     run.mismatches = validation.mismatches;
     for (const auto& example : validation.examples)
-      fmt::print(stderr, "mismatch ({} {} view {}): {}\n", accelerator.structure(), run.kind,
-                 run.view, example);
+      fmt::print(stderr, "mismatch ({} {} view {}): {}\n", to_string(accelerator.structure()),
+                 run.kind, run.view, example);
   }
   return run;
 }
@@ -165,10 +165,10 @@ const Accelerator& secondary_ray_source(const Scene& scene,
                                         const std::vector<Contender>& contenders,
                                         std::unique_ptr<Accelerator>& built) {
   for (const auto& c : contenders)
-    if (c.structure == default_structure() && c.options.grid == BuildConfig{} &&
-        c.accelerator->backend() == "cpu")
+    if (c.structure == kDefaultStructure && c.options.grid == BuildConfig{} &&
+        c.accelerator->backend() == Backend::cpu)
       return *c.accelerator;
-  built = make_accelerator(scene, default_structure());
+  built = make_accelerator(scene, kDefaultStructure, environment_options());
   return *built;
 }
 

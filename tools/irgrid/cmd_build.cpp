@@ -22,62 +22,69 @@ struct BuildOptions {
 
 nlohmann::json statistics_json(const Scene& scene, const std::string& scene_file,
                                const Accelerator& accelerator, const BuildConfig& grid) {
-  const BuildInfo& info = accelerator.build_info();
+  const BuildStats& stats = accelerator.build_stats();
   const double per_triangle =
-      scene.triangle_count() ? double(info.memory_bytes) / double(scene.triangle_count()) : 0;
+      scene.triangle_count() ? double(stats.memory_bytes) / double(scene.triangle_count()) : 0;
   nlohmann::json statistics = {{"scene", scene.name},
                                {"scene_file", scene_file},
                                {"triangles", scene.triangle_count()},
-                               {"structure", accelerator.structure()},
-                               {"backend", accelerator.backend()},
-                               {"build_ms", info.build_ms},
-                               {"build_phases_ms", info.phases_ms},
-                               {"counts", info.counts},
-                               {"memory_bytes", info.memory_bytes},
-                               {"memory_breakdown_bytes", info.bytes},
+                               {"structure", to_string(accelerator.structure())},
+                               {"backend", to_string(accelerator.backend())},
                                {"bytes_per_triangle", per_triangle}};
-  add_grid_config_json(statistics, accelerator.structure(), info, grid);
+  add_build_stats_json(statistics, accelerator.structure(), stats,
+                       is_grid(accelerator.structure()) ? std::optional(grid) : std::nullopt);
   return statistics;
 }
 
-void print_statistics(const nlohmann::json& s) {
+void print_statistics(const Scene& scene, const Accelerator& accelerator, const BuildConfig& grid) {
+  const BuildStats& stats = accelerator.build_stats();
   fmt::print("{} on {} over {} ({} triangles): built in {:.2f} ms\n",
-             s["structure"].get<std::string>(), s["backend"].get<std::string>(),
-             s["scene"].get<std::string>(), s["triangles"].get<std::uint64_t>(),
-             s["build_ms"].get<double>());
-  // The phases in the order a grid build runs them (JSON objects sort their keys), then any
-  // other structure's.
-  const auto& phases = s["build_phases_ms"];
-  std::vector<std::string> order(std::begin(kGridBuildPhaseNames), std::end(kGridBuildPhaseNames));
-  for (const auto& [phase, ms] : phases.items())
-    if (std::find(order.begin(), order.end(), phase) == order.end()) order.push_back(phase);
-  for (const auto& phase : order)
-    if (phases.contains(phase))
-      fmt::print("  phase {:<22} {:>10.2f} ms\n", phase, phases[phase].get<double>());
-  if (s.contains("lambda2_used") &&
-      s["lambda2_used"].get<double>() != s["config"]["lambda2"].get<double>())
-    fmt::print("  lambda2 used {:>26.4g} (raised from {:.4g} to aim at --min-cells {})\n",
-               s["lambda2_used"].get<double>(), s["config"]["lambda2"].get<double>(),
-               s["config"]["min_cells"].get<unsigned>());
-  for (const auto& [name, count] : s["counts"].items())
-    if (name != "peak_build_bytes")
-      fmt::print("  {:<28} {:>10}\n", name, count.get<std::uint64_t>());
-  for (const auto& [name, bytes] : s["memory_breakdown_bytes"].items())
-    fmt::print("  bytes {:<22} {:>10.2f} MiB\n", name, bytes.get<double>() / 1048576.0);
+             to_string(accelerator.structure()), to_string(accelerator.backend()), scene.name,
+             scene.triangle_count(), stats.build_ms);
+  for (std::size_t p = 0; p < kBuildPhaseCount; ++p)
+    if (stats.phase_ms[p])
+      fmt::print("  phase {:<22} {:>10.2f} ms\n", to_string(BuildPhase(p)), *stats.phase_ms[p]);
+  if (stats.grid) {
+    const GridStats& g = *stats.grid;
+    if (accelerator.structure() == Structure::irregular && g.lambda2_used != grid.lambda2)
+      fmt::print("  lambda2 used {:>26.4g} (raised from {:.4g} to aim at --min-cells {})\n",
+                 g.lambda2_used, grid.lambda2, grid.min_cells);
+    const std::pair<const char*, std::uint64_t> counts[] = {
+        {"top_level_references", g.top_level_references},
+        {"cells", g.cells},
+        {"references", g.references},
+        {"entries", g.voxel_map_entries},
+        {"top_x", g.top_dims[0]},
+        {"top_y", g.top_dims[1]},
+        {"top_z", g.top_dims[2]},
+        {"depth", g.depth},
+        {"compressed_cells", g.compressed_cells}};
+    for (const auto& [name, count] : counts)
+      fmt::print("  {:<28} {:>10}\n", name, count);
+    const std::pair<const char*, std::uint64_t> bytes[] = {{"cells", g.cells_bytes},
+                                                           {"references", g.references_bytes},
+                                                           {"voxel_map", g.voxel_map_bytes},
+                                                           {"triangles", g.triangles_bytes},
+                                                           {"empty_radii", g.empty_radii_bytes}};
+    for (const auto& [name, size] : bytes)
+      if (size > 0) fmt::print("  bytes {:<22} {:>10.2f} MiB\n", name, double(size) / 1048576.0);
+  }
+  const double per_triangle =
+      scene.triangle_count() ? double(stats.memory_bytes) / double(scene.triangle_count()) : 0;
   fmt::print("  memory {:>31.2f} MiB ({:.1f} bytes per triangle)\n",
-             s["memory_bytes"].get<double>() / 1048576.0, s["bytes_per_triangle"].get<double>());
-  if (s["counts"].contains("peak_build_bytes"))
+             double(stats.memory_bytes) / 1048576.0, per_triangle);
+  if (stats.grid)
     fmt::print("  peak memory during the build {:>9.2f} MiB\n",
-               s["counts"]["peak_build_bytes"].get<double>() / 1048576.0);
+               double(stats.grid->peak_build_bytes) / 1048576.0);
 }
 
 void run_build(const BuildOptions& o) {
   if (!o.json.empty()) check_writable(o.json);
   const Scene scene = load_scene_reporting(o.scene);
   const auto accelerator = build_reporting(scene, o.structure);
-  const auto statistics = statistics_json(scene, o.scene, *accelerator, o.structure.grid);
-  print_statistics(statistics);
+  print_statistics(scene, *accelerator, o.structure.grid);
   if (o.json.empty()) return;
+  const auto statistics = statistics_json(scene, o.scene, *accelerator, o.structure.grid);
   std::ofstream file(o.json);
   if (!file) throw Error(ErrorCode::io, fmt::format("{}: cannot create", o.json));
   file << statistics.dump(2) << '\n';

@@ -6,7 +6,8 @@
 #include "commands.h"
 #include "common.h"
 #include "irgrid/accelerator.h"
-#include "irgrid/camera.h"
+#include "irgrid/io/camera.h"
+#include "irgrid/io/machine.h"
 #include "irgrid/system.h"
 
 namespace irgrid::cli {
@@ -18,9 +19,11 @@ struct InfoOptions {
 };
 
 nlohmann::json system_json() {
-  const auto machine = machine_info();
+  const auto machine = machine_info(environment_options().cpu_walk);
   const auto cuda = cuda_status();
-  nlohmann::json gpus = nlohmann::json::array();
+  nlohmann::json gpus = nlohmann::json::array(), structures = nlohmann::json::array();
+  for (const Structure structure : available_structures())
+    structures.push_back(to_string(structure));
   for (const auto& gpu : cuda.gpus)
     gpus.push_back(
         {{"index", gpu.index},
@@ -31,7 +34,7 @@ nlohmann::json system_json() {
          {"multiprocessors", gpu.multiprocessors}});
   return {{"version", version()},
           {"backends", cuda.compiled ? nlohmann::json{"cpu", "cuda"} : nlohmann::json{"cpu"}},
-          {"structures", available_structures()},
+          {"structures", structures},
           {"cuda_status", cuda.status},
           {"gpus", gpus},
           {"cpu", machine.cpu_model},

@@ -3,7 +3,7 @@
 
 #include "commands.h"
 #include "common.h"
-#include "irgrid/rays.h"
+#include "irgrid/io/rays.h"
 
 namespace irgrid::cli {
 namespace {

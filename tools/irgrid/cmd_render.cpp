@@ -7,12 +7,12 @@
 
 #include "commands.h"
 #include "common.h"
-#include "core/random.h"
-#include "core/vec.h"
-#include "irgrid/camera.h"
 #include "irgrid/error.h"
-#include "irgrid/image.h"
-#include "irgrid/rays.h"
+#include "irgrid/io/camera.h"
+#include "irgrid/io/image.h"
+#include "irgrid/io/random.h"
+#include "irgrid/io/rays.h"
+#include "irgrid/kernel/vec.h"
 
 namespace irgrid::cli {
 namespace {

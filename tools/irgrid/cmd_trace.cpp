@@ -9,7 +9,7 @@
 #include "commands.h"
 #include "common.h"
 #include "irgrid/error.h"
-#include "irgrid/rays.h"
+#include "irgrid/io/rays.h"
 
 namespace irgrid::cli {
 namespace {

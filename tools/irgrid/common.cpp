@@ -3,13 +3,15 @@
 
 #include <charconv>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <string_view>
 
 #include <fmt/format.h>
 
-#include "irgrid/camera.h"
 #include "irgrid/error.h"
+#include "irgrid/io/camera.h"
 #include "progress.h"
 
 namespace irgrid::cli {
@@ -65,7 +67,7 @@ void add_structure_options(CLI::App* command, StructureOptions& options) {
   // Checked while parsing, so a missing GPU is reported before a large scene is loaded.
   command->add_option("--backend", options.backend, "cpu, cuda or auto")
       ->capture_default_str()
-      ->each([](const std::string& backend) { resolve_backend(backend); });
+      ->each([](const std::string& backend) { resolve_backend(parse_backend(backend)); });
   BuildConfig& grid = options.grid;
   command->add_option("--lambda1", grid.lambda1, "Top-level density")
       ->capture_default_str()
@@ -123,18 +125,57 @@ void add_structure_options(CLI::App* command, StructureOptions& options) {
       ->group("Grid");
 }
 
+const AcceleratorOptions& environment_options() {
+  static const AcceleratorOptions options = [] {
+    AcceleratorOptions out;
+    if (const char* walk = std::getenv("IRGRID_CPU_WALK")) {
+      try {
+        out.cpu_walk = parse_cpu_walk(walk);
+        if (std::string_view(cpu_walk_in_use(out.cpu_walk)) != to_string(out.cpu_walk) &&
+            out.cpu_walk != CpuWalk::automatic) {
+          fmt::print(stderr, "warning: IRGRID_CPU_WALK={}: this CPU has no {}; ignored\n", walk,
+                     walk);
+          out.cpu_walk = CpuWalk::automatic;
+        }
+      } catch (const Error&) {
+        fmt::print(stderr,
+                   "warning: IRGRID_CPU_WALK={} is not simd, avx512, avx2, single or "
+                   "interleaved; ignored\n",
+                   walk);
+      }
+    }
+    if (const char* config = std::getenv("IRGRID_EMBREE_CONFIG")) out.embree_config = config;
+    out.profile_primitives = std::getenv("IRGRID_PRIMITIVE_PROFILE") != nullptr;
+    return out;
+  }();
+  return options;
+}
+
+AcceleratorOptions accelerator_options(const std::string& backend, const BuildConfig& grid) {
+  AcceleratorOptions options = environment_options();
+  options.backend = parse_backend(backend);
+  options.grid = grid;
+  return options;
+}
+
+std::unique_ptr<Accelerator> make_structure(const Scene& scene, Structure structure,
+                                            const AcceleratorOptions& options) {
+  auto accelerator = make_accelerator(scene, structure, options);
+  for (const auto& [name, ms] : accelerator->build_stats().primitives)
+    fmt::print(stderr, "  primitive {:<28} {:9.2f} ms\n", name, ms);
+  return accelerator;
+}
+
 std::unique_ptr<Accelerator> build_reporting(const Scene& scene,
                                              const StructureOptions& structure) {
-  AcceleratorOptions options;
-  options.backend = structure.backend;
-  options.grid = structure.grid;
-  const std::string name = structure.structure.empty() ? default_structure() : structure.structure;
-  Progress progress("building " + name, kGridBuildPhases);
-  options.on_phase = [&](const char*) { progress.advance(1); };
-  auto accelerator = make_accelerator(scene, name, options);
+  AcceleratorOptions options = accelerator_options(structure.backend, structure.grid);
+  const Structure chosen = structure.parsed_structure();
+  Progress progress(fmt::format("building {}", to_string(chosen)), kBuildPhaseCount);
+  options.on_phase = [&](BuildPhase) { progress.advance(1); };
+  auto accelerator = make_structure(scene, chosen, options);
   progress.done();
-  fmt::print(stderr, "built {} on {} in {:.1f} ms\n", accelerator->structure(),
-             accelerator->backend(), accelerator->build_info().build_ms);
+  fmt::print(stderr, "built {} on {} in {:.1f} ms\n", to_string(accelerator->structure()),
+             to_string(accelerator->backend()), accelerator->build_stats().build_ms);
   return accelerator;
 }
 

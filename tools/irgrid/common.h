@@ -11,7 +11,7 @@
 #include <CLI/CLI.hpp>
 
 #include "irgrid/accelerator.h"
-#include "irgrid/scene.h"
+#include "irgrid/io/scene.h"
 
 namespace irgrid::cli {
 
@@ -20,10 +20,28 @@ Scene load_scene_reporting(const std::string& spec);
 
 /// Options shared by every command that builds a structure.
 struct StructureOptions {
-  std::string structure;  ///< empty: default_structure()
+  std::string structure;  ///< empty: kDefaultStructure
   std::string backend = "cpu";
   BuildConfig grid;
+  /// The structure named (kDefaultStructure when none is).
+  Structure parsed_structure() const {
+    return structure.empty() ? kDefaultStructure : parse_structure(structure);
+  }
 };
+
+/// The library options the environment selects for every command: IRGRID_CPU_WALK
+/// (simd|avx512|avx2|single|interleaved), IRGRID_EMBREE_CONFIG (Embree's device configuration)
+/// and IRGRID_PRIMITIVE_PROFILE (time each primitive of a CPU grid build). Read once; an
+/// unknown walk, or one this CPU lacks, is ignored with a warning on stderr.
+const AcceleratorOptions& environment_options();
+
+/// The options for building on `backend` ("cpu", "cuda" or "auto") with `grid`, the rest from
+/// the environment (environment_options).
+AcceleratorOptions accelerator_options(const std::string& backend, const BuildConfig& grid);
+
+/// make_accelerator, then (with IRGRID_PRIMITIVE_PROFILE) the build's primitives on stderr.
+std::unique_ptr<Accelerator> make_structure(const Scene& scene, Structure structure,
+                                            const AcceleratorOptions& options);
 
 /// Adds --structure, --backend and the grid parameters (--lambda1, ...) to a command.
 void add_structure_options(CLI::App* command, StructureOptions& options);

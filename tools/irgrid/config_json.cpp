@@ -1,26 +1,52 @@
-// The grid parameters in the JSON of `build` and `bench` (docs/bench-json.md).
+// A build's figures and grid parameters in the JSON of `build` and `bench` (docs/bench-json.md).
 #include "config_json.h"
 
 #include "irgrid/build_config.h"
 
 namespace irgrid::cli {
 
-void add_grid_config_json(nlohmann::json& out, const std::string& structure, const BuildInfo& info,
-                          const BuildConfig& grid) {
-  out["config"] = {{"lambda1", grid.lambda1},
-                   {"lambda2", grid.lambda2},
-                   {"min_cells", grid.min_cells},
-                   {"split_refs", grid.split_refs},
-                   {"alpha", grid.alpha},
-                   {"cost_ratio", grid.cost_ratio},
-                   {"empty_aspect", grid.empty_aspect},
-                   {"expansion_passes", grid.expansion_passes},
-                   {"partial_expansion", grid.partial_expansion},
-                   {"skip_empty", grid.skip_empty},
-                   {"compress", grid.compress}};
-  const auto refs = info.counts.find("top_level_references");
-  if (structure == "irregular" && refs != info.counts.end())
-    out["lambda2_used"] = effective_lambda2(grid, refs->second);
+void add_build_stats_json(nlohmann::json& out, Structure structure, const BuildStats& stats,
+                          const std::optional<BuildConfig>& grid) {
+  out["build_ms"] = stats.build_ms;
+  nlohmann::json phases = nlohmann::json::object();
+  for (std::size_t p = 0; p < kBuildPhaseCount; ++p)
+    if (stats.phase_ms[p]) phases[to_string(BuildPhase(p))] = *stats.phase_ms[p];
+  out["build_phases_ms"] = phases;
+  out["memory_bytes"] = stats.memory_bytes;
+  out["memory_breakdown_bytes"] = nlohmann::json::object();
+  out["counts"] = nlohmann::json::object();
+  if (stats.grid) {
+    const GridStats& g = *stats.grid;
+    out["memory_breakdown_bytes"] = {{"cells", g.cells_bytes},
+                                     {"references", g.references_bytes},
+                                     {"voxel_map", g.voxel_map_bytes},
+                                     {"triangles", g.triangles_bytes}};
+    if (g.empty_radii_bytes > 0) out["memory_breakdown_bytes"]["empty_radii"] = g.empty_radii_bytes;
+    out["counts"] = {{"top_level_references", g.top_level_references},
+                     {"cells", g.cells},
+                     {"references", g.references},
+                     {"entries", g.voxel_map_entries},
+                     {"top_x", g.top_dims[0]},
+                     {"top_y", g.top_dims[1]},
+                     {"top_z", g.top_dims[2]},
+                     {"depth", g.depth},
+                     {"compressed_cells", g.compressed_cells ? 1 : 0},
+                     {"peak_build_bytes", g.peak_build_bytes}};
+  }
+  if (!grid) return;
+  out["config"] = {{"lambda1", grid->lambda1},
+                   {"lambda2", grid->lambda2},
+                   {"min_cells", grid->min_cells},
+                   {"split_refs", grid->split_refs},
+                   {"alpha", grid->alpha},
+                   {"cost_ratio", grid->cost_ratio},
+                   {"empty_aspect", grid->empty_aspect},
+                   {"expansion_passes", grid->expansion_passes},
+                   {"partial_expansion", grid->partial_expansion},
+                   {"skip_empty", grid->skip_empty},
+                   {"compress", grid->compress}};
+  if (structure == Structure::irregular && stats.grid)
+    out["lambda2_used"] = stats.grid->lambda2_used;
 }
 
 }  // namespace irgrid::cli

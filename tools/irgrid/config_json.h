@@ -1,7 +1,8 @@
-// tools/irgrid/config_json.h: the grid parameters in the JSON that `build` and `bench` write.
+// tools/irgrid/config_json.h: a build's figures and grid parameters in the JSON that `build`
+// and `bench` write (docs/bench-json.md).
 #pragma once
 
-#include <string>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 
@@ -9,9 +10,10 @@
 
 namespace irgrid::cli {
 
-/// Adds `config` (the grid parameters as given) to a structure's JSON object, and for irregular
-/// grids `lambda2_used`, the λ2 its octrees used (docs/bench-json.md).
-void add_grid_config_json(nlohmann::json& out, const std::string& structure, const BuildInfo& info,
-                          const BuildConfig& grid);
+/// Adds build_ms, build_phases_ms (the phases that ran), memory_bytes, memory_breakdown_bytes
+/// and counts to a structure's JSON object; for grids also `config` (the grid parameters as
+/// given) and, for irregular grids, `lambda2_used`, the λ2 its octrees used.
+void add_build_stats_json(nlohmann::json& out, Structure structure, const BuildStats& stats,
+                          const std::optional<BuildConfig>& grid);
 
 }  // namespace irgrid::cli

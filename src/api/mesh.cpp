@@ -1,0 +1,48 @@
+// Checking a caller's mesh before any structure copies it.
+#include <fmt/format.h>
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
+#include "irgrid/error.h"
+#include "irgrid/mesh.h"
+
+namespace irgrid {
+
+void check_mesh(const TriangleMesh& mesh) {
+  constexpr std::size_t kMaxCount = std::numeric_limits<std::uint32_t>::max();
+  if (mesh.triangle_count > kMaxCount || mesh.vertex_count > kMaxCount)
+    throw Error(ErrorCode::limit_exceeded,
+                fmt::format("mesh: {} triangles and {} vertices; at most {} of each fit the "
+                            "32-bit triangle and vertex ids",
+                            mesh.triangle_count, mesh.vertex_count, kMaxCount));
+  if ((mesh.vertex_count > 0 && mesh.vertices == nullptr) ||
+      (mesh.triangle_count > 0 && mesh.indices == nullptr))
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("mesh: {} vertices at {} and {} triangles at {}: a null array with a "
+                            "non-zero count",
+                            mesh.vertex_count, fmt::ptr(mesh.vertices), mesh.triangle_count,
+                            fmt::ptr(mesh.indices)));
+  if (mesh.vertex_stride < 3 * sizeof(float) || mesh.vertex_stride % sizeof(float) != 0)
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("mesh: vertex_stride {} bytes; it must be a multiple of 4 and at "
+                            "least 12 (float3)",
+                            mesh.vertex_stride));
+  for (std::size_t i = 0; i < mesh.triangle_count; ++i)
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t index = mesh.indices[3 * i + k];
+      if (index >= mesh.vertex_count)
+        throw Error(ErrorCode::invalid_argument,
+                    fmt::format("mesh: triangle {} names vertex {}, but the mesh has {} vertices",
+                                i, index, mesh.vertex_count));
+      const float* p = mesh.vertex(index);
+      if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+        throw Error(ErrorCode::invalid_argument,
+                    fmt::format("mesh: triangle {} uses vertex {} = ({}, {}, {}), which is not "
+                                "finite",
+                                i, index, p[0], p[1], p[2]));
+    }
+}
+
+}  // namespace irgrid

@@ -1,0 +1,98 @@
+// core/construction/expand.h: exit-box expansion, the last phase of the build.
+//
+// Pérard-Gayot, Kalojanov, Slusallek, "GPU Ray Tracing using Irregular Grids", EG 2017, §3.3:
+// entry and exit boundaries are decoupled. The voxel map keeps each cell's own box (where rays
+// enter it); the box stored in the cell (where rays leave it) grows over neighbours whose
+// triangles it already lists, so traversal skips them and stops earlier. Each pass grows along
+// x, then y, then z; along one axis every cell tries both directions, reading one snapshot of
+// the boxes and writing a second buffer, so the result does not depend on scheduling. Why the
+// growth keeps traversal exact, and the partial mode, are explained in expand_face.h.
+#pragma once
+
+#include <cstdint>
+#include <type_traits>
+#include <utility>
+
+#include "core/construction/cells.h"
+#include "core/construction/expand_face.h"
+
+namespace irgrid {
+
+namespace expand_detail {
+
+/// Grows every cell along kAxis (both directions) from the boxes in grid.cells into `out`.
+/// `can_grow` holds one bit per face (bit 2 * kAxis for the lower face, 2 * kAxis + 1 for the
+/// upper one) and cell; a face whose bit is clear stays where it is, and the bit is cleared when
+/// the face did not grow by the full depth of its neighbours (blocked by the grid boundary or by
+/// a list): the same neighbours still own the voxels past that face in later passes, so it would
+/// mostly be blocked again. The bits only save work: clearing one never makes the grid wrong.
+template <int kAxis, typename Exec>
+void expand_axis(Exec& exec, const GridArrays<Exec>& grid, Cell* out, std::uint8_t* can_grow,
+                 bool partial, std::int32_t growth_quantum) {
+  const ExpandView view{grid.info,        grid.entries.data(),   grid.cells.data(),
+                        grid.refs.data(), grid.triangles.data(), partial,
+                        growth_quantum};
+  constexpr auto down_bit = std::uint8_t(1u << (2 * kAxis)),
+                 up_bit = std::uint8_t(2u << (2 * kAxis));
+  exec.for_each("expand cells", grid.info.num_cells, [=] IRGRID_HD(std::size_t i) {
+    const Cell snapshot = view.cells[i];
+    Cell cell = snapshot;
+    std::uint8_t faces = can_grow[i];
+    // Both directions read the snapshot box; the two slabs are disjoint and each is safe on its
+    // own, so their union is too.
+    if (faces & up_bit) {
+      const FaceGrowth up = face_growth<kAxis, +1>(view, snapshot);
+      cell.hi[kAxis] += up.voxels;
+      if (!up.may_grow_further) faces = std::uint8_t(faces & ~up_bit);
+    }
+    if (faces & down_bit) {
+      const FaceGrowth down = face_growth<kAxis, -1>(view, snapshot);
+      cell.lo[kAxis] -= down.voxels;
+      if (!down.may_grow_further) faces = std::uint8_t(faces & ~down_bit);
+    }
+    can_grow[i] = faces;
+    out[i] = cell;
+  });
+}
+
+}  // namespace expand_detail
+
+/// Grows the exit boxes of all cells of `grid` in `passes` passes (x, y, z each; 0 or less:
+/// nothing; fewer once no face may grow), in place of grid.cells. With `partial`, a cell may also
+/// grow part-way into neighbours that hold triangles it does not list (not in the paper), in steps
+/// of growth_quantum voxels (a power of two).
+///
+/// Requires a valid grid: cells tile the virtual grid (their boxes may already be expanded exit
+/// boxes), every list sorted ascending and unique, the voxel map answering each voxel's owner,
+/// and every triangle that overlaps a cell's box grown by info.padding in the cell's list.
+/// Guarantees the same of the result with the exit boxes: each contains the cell's previous box
+/// and stays inside the grid; the voxel map, the references and the ranges are unchanged.
+/// Deterministic: the result depends on the inputs only, not on the number of threads.
+template <typename Exec>
+void expand_cells(Exec& exec, GridArrays<Exec>& grid, int passes, bool partial,
+                  std::int32_t growth_quantum = 1) {
+  const std::uint32_t count = grid.info.num_cells;
+  if (passes <= 0 || count == 0) return;
+  auto back = exec.template allocate<Cell>(count);
+  auto can_grow = exec.template allocate<std::uint8_t>(count);
+  std::uint8_t* d_can_grow = can_grow.data();
+  exec.for_each("expand flags", count, [=] IRGRID_HD(std::size_t i) { d_can_grow[i] = 0x3f; });
+  const auto grow_along = [&](auto axis) {
+    expand_detail::expand_axis<decltype(axis)::value>(exec, grid, back.data(), d_can_grow, partial,
+                                                      growth_quantum);
+    std::swap(grid.cells, back);  // the boxes just written are the next step's snapshot
+  };
+  for (int pass = 0; pass < passes; ++pass) {
+    grow_along(std::integral_constant<int, 0>());
+    grow_along(std::integral_constant<int, 1>());
+    grow_along(std::integral_constant<int, 2>());
+    // No face left that may grow: later passes would copy every box unchanged (a huge
+    // --expansion-passes once ran for minutes doing only that).
+    const std::uint8_t any_face =
+        exec.reduce("expand any face", d_can_grow, count, std::uint8_t(0),
+                    [] IRGRID_HD(std::uint8_t a, std::uint8_t b) { return std::uint8_t(a | b); });
+    if (any_face == 0) break;
+  }
+}
+
+}  // namespace irgrid

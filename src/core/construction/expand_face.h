@@ -1,0 +1,201 @@
+// core/construction/expand_face.h: how far one cell's exit box may grow through one of its faces.
+//
+// Pérard-Gayot, Kalojanov, Slusallek, "GPU Ray Tracing using Irregular Grids", EG 2017, §3.3
+// (expansion), and ../shared/design/algorithm.md §5. The invariant that keeps traversal exact:
+//     every triangle that overlaps a cell's exit box grown by GridInfo::padding is in its list
+// (the insertion test establishes it with that padding; traversal relies on the padding to absorb
+// the rounding of its float positions). Growth through a face adds a slab S = face x [h, h + d]
+// (for the upper face; the lower one is symmetric). The face is walked in tiles, each tile lying
+// inside the current exit box of the neighbour N that owns the voxel just outside it, and d never
+// exceeds the depth of any such box, so S is covered by those boxes. A triangle overlapping S
+// grown by the padding therefore overlaps some N's exit box grown by the padding, so it is in N's
+// list by the invariant of N, and it is in C's list too unless it is one of N's *extra* triangles
+// (in N's list, not in C's):
+//   * subset mode (the paper): any extra triangle forbids growth through the whole face;
+//   * partial mode (not in the paper; the talk's slides report +10-20% traversal speed): an extra
+//     triangle only caps d so that S stays more than the padding away from the triangle's
+//     bounding box, along the axis of growth (rounded down to a multiple of the growth quantum),
+//     or it is ignored when its box is more than the padding away from the face's cross-section. A
+//     triangle lies inside its box, so it then cannot come within the padding of S either.
+// Comparisons use twice the padding: the float rounding of "coordinate ± 2 x padding" is far below
+// one padding (about 64 ulps of the scene's largest coordinate), so "apart by more than the
+// padding" holds exactly whenever the float comparison claims the doubled margin.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+
+#include "irgrid/kernel/grid_layout.h"
+#include "irgrid/kernel/triangle.h"
+
+namespace irgrid {
+namespace expand_detail {
+
+/// What the growth of all cells along one axis reads: the grid and ONE snapshot of the exit
+/// boxes, so that the result does not depend on the order in which cells are processed.
+struct ExpandView {
+  GridInfo info;
+  const Entry* entries;               ///< voxel map: entry-box ownership, never modified
+  const Cell* cells;                  ///< exit boxes before this axis step
+  const std::uint32_t* refs;          ///< per-cell lists, sorted ascending and unique
+  const TriangleVertices* triangles;  ///< for the boxes of extra triangles (partial mode)
+  bool partial;                       ///< partial expansion on
+  std::int32_t growth_quantum;        ///< partial growth in multiples of this (a power of two)
+};
+
+/// Growth through one face.
+struct FaceGrowth {
+  std::int32_t voxels;    ///< how far the face moves outwards, >= 0
+  bool may_grow_further;  ///< limited only by the depth of the neighbours' boxes
+};
+
+/// First index in [first, last) of the sorted refs whose value is >= id (last if none).
+IRGRID_HD inline std::uint32_t lower_bound_ref(const std::uint32_t* refs, std::uint32_t first,
+                                               std::uint32_t last, std::uint32_t id) {
+  while (first < last) {
+    const std::uint32_t mid = first + (last - first) / 2;
+    if (refs[mid] < id)
+      first = mid + 1;
+    else
+      last = mid;
+  }
+  return first;
+}
+
+/// floor(x) for x within the int32 range, exact, without floorf: x86-64's baseline has no
+/// rounding instruction, and this runs for every extra triangle of every face.
+IRGRID_HD inline std::int32_t floor_to_int(float x) {
+  const std::int32_t truncated = std::int32_t(x);
+  return float(truncated) > x ? truncated - 1 : truncated;
+}
+
+/// A box's bounds, per axis: `lo(a)`, `hi(a)`.
+struct StoredBounds {
+  const BoxF& box;
+  IRGRID_HD float lo(int a) const { return box.lo[a]; }
+  IRGRID_HD float hi(int a) const { return box.hi[a]; }
+};
+
+/// A triangle's box bounds, each computed when asked (the same values as triangle_box): most
+/// extra triangles are settled by their bound along the axis of growth alone.
+struct TriangleBounds {
+  const TriangleVertices& t;
+  IRGRID_HD float lo(int a) const { return min3(t.p0[a], t.p1[a], t.p2[a]); }
+  IRGRID_HD float hi(int a) const { return max3(t.p0[a], t.p1[a], t.p2[a]); }
+};
+
+/// The largest growth d in [0, limit] of cell c's face on kAxis (kDirection +1: the upper face,
+/// -1: the lower one) that keeps the grown slab more than the padding away from `box` (the box
+/// of a triangle missing from c's list). Conservative: the float floor may cost a voxel, never
+/// admit one too many, because every candidate plane is checked with the doubled margin. The
+/// axis and direction are template parameters so that every coordinate is picked at compile
+/// time: this runs for every extra triangle of every neighbour of every face.
+template <int kAxis, int kDirection, typename Bounds>
+IRGRID_HD inline std::int32_t growth_before_box(const GridInfo& info, const Cell& c,
+                                                const Bounds& box, std::int32_t limit) {
+  const float margin = 2.f * info.padding;
+  // Along the axis first: a triangle beyond the reach of the full growth cannot cap it, whatever
+  // the cross-section test below would say, so most far triangles need one bound only.
+  std::int32_t grown;
+  if (kDirection > 0) {
+    // The far plane P = hi + d must stay below box.lo - padding: start from the voxel holding
+    // that coordinate and step back while the check fails.
+    const std::int32_t face = c.hi[kAxis];
+    const float first = (box.lo(kAxis) - margin - info.box_lo[kAxis]) * info.inv_voxel_size[kAxis];
+    // floor(first) clamped to [face, face + limit] (NaN -> face); the bounds are integers, so
+    // clamping first gives the same plane.
+    std::int32_t plane = floor_to_int(min_fast(max_fast(first, float(face)), float(face + limit)));
+    while (plane > face && !(voxel_to_world(info, kAxis, plane) + margin < box.lo(kAxis)))
+      --plane;
+    grown = plane - face;
+  } else {
+    // The far plane P = lo - d must stay above box.hi + padding.
+    const std::int32_t face = c.lo[kAxis];
+    const float first = (box.hi(kAxis) + margin - info.box_lo[kAxis]) * info.inv_voxel_size[kAxis];
+    // floor(first) + 1 clamped to [face - limit, face] (NaN -> face), clamped before the floor.
+    std::int32_t plane =
+        floor_to_int(max_fast(min_fast(first, float(face - 1)), float(face - limit - 1))) + 1;
+    while (plane < face && !(voxel_to_world(info, kAxis, plane) - margin > box.hi(kAxis)))
+      ++plane;
+    grown = face - plane;
+  }
+  if (grown == limit) return limit;
+  // Apart from the face's cross-section on a face axis: the triangle cannot reach the slab.
+  // (Written so that a NaN box keeps the cap above, which is then 0.)
+  constexpr int kRow = (kAxis + 1) % 3, kColumn = (kAxis + 2) % 3;
+  if (box.lo(kRow) - margin > voxel_to_world(info, kRow, c.hi[kRow]) ||
+      box.hi(kRow) + margin < voxel_to_world(info, kRow, c.lo[kRow]) ||
+      box.lo(kColumn) - margin > voxel_to_world(info, kColumn, c.hi[kColumn]) ||
+      box.hi(kColumn) + margin < voxel_to_world(info, kColumn, c.lo[kColumn]))
+    return limit;
+  return grown;
+}
+
+/// The largest growth in [0, limit] that neighbour n's list allows cell c: limit when n's list
+/// is a subset of c's; otherwise 0 in subset mode, and in partial mode the cap set by the
+/// boxes of n's extra triangles. Both lists are sorted, so one pass over n's list finds the
+/// extras, with a binary search in c's list (from the last position on) only for references
+/// past c's next one.
+template <int kAxis, int kDirection>
+IRGRID_HD inline std::int32_t growth_allowed_by_list(const ExpandView& view, const Cell& c,
+                                                     const Cell& n, std::int32_t limit) {
+  // A longer list cannot be a subset; partial mode still needs the extras' boxes.
+  if (!view.partial && n.end - n.begin > c.end - c.begin) return 0;
+  std::uint32_t from = c.begin;
+  for (std::uint32_t r = n.begin; r < n.end && limit > 0; ++r) {
+    const std::uint32_t id = view.refs[r];
+    // Searched only when the id lies past c's next reference.
+    if (from < c.end && view.refs[from] < id)
+      from = lower_bound_ref(view.refs, from + 1, c.end, id);
+    if (from < c.end && view.refs[from] == id) {
+      ++from;
+      continue;
+    }
+    if (!view.partial) return 0;
+    const std::int32_t cap = growth_before_box<kAxis, kDirection>(
+        view.info, c, TriangleBounds{view.triangles[id]}, limit);
+    // Rounding down only shrinks the slab, and a cap below one quantum ends the scan early.
+    if (cap < limit) limit = cap & ~(view.growth_quantum - 1);
+  }
+  return limit;
+}
+
+/// How far cell c (its snapshot exit box) may grow through its face on kAxis in kDirection
+/// (+1 or -1). Walks the face in rows of tiles: each tile starts at a voxel just outside the
+/// face, whose owner N is found in the voxel map, and spans N's current exit box (clamped to the
+/// face) along the row; a row is as tall as its shortest tile. Every tile thus lies inside one
+/// neighbour's exit box, which the argument at the top of this file needs.
+template <int kAxis, int kDirection>
+IRGRID_HD inline FaceGrowth face_growth(const ExpandView& view, const Cell& c) {
+  const std::int32_t outside = kDirection > 0 ? c.hi[kAxis] : c.lo[kAxis] - 1;
+  if (outside < 0 || outside >= view.info.virtual_dims[kAxis]) return {0, false};
+  constexpr int kRow = (kAxis + 1) % 3, kColumn = (kAxis + 2) % 3;
+  std::int32_t depth = kMaxVirtualResolution;  // min over neighbours of their box's depth
+  std::int32_t allowed = depth;                // min over neighbours of what their lists allow
+  Voxel at{};
+  at[kAxis] = outside;
+  for (std::int32_t j = c.lo[kColumn]; j < c.hi[kColumn] && allowed > 0;) {
+    std::int32_t row_end = c.hi[kColumn];
+    for (std::int32_t i = c.lo[kRow]; i < c.hi[kRow] && allowed > 0;) {
+      at[kRow] = i;
+      at[kColumn] = j;
+      const Cell n = view.cells[lookup_cell(view.info, view.entries, at)];
+      // An owner that misses its own voxel means an inconsistent map: give up, never spin.
+      if (n.hi[kRow] <= i || n.hi[kColumn] <= j) return {0, false};
+      const std::int32_t n_depth =
+          kDirection > 0 ? n.hi[kAxis] - c.hi[kAxis] : c.lo[kAxis] - n.lo[kAxis];
+      depth = n_depth < depth ? n_depth : depth;
+      const std::int32_t limit = allowed < depth ? allowed : depth;
+      allowed = growth_allowed_by_list<kAxis, kDirection>(view, c, n, limit);
+      // n's exit box holds its entry box, which holds the voxel at (i, j): both advance.
+      i = n.hi[kRow] < c.hi[kRow] ? n.hi[kRow] : c.hi[kRow];
+      row_end = n.hi[kColumn] < row_end ? n.hi[kColumn] : row_end;
+    }
+    j = row_end;
+  }
+  const std::int32_t grown = allowed < depth ? allowed : depth;
+  return {grown > 0 ? grown : 0, grown > 0 && grown == depth};
+}
+
+}  // namespace expand_detail
+}  // namespace irgrid

@@ -1,0 +1,43 @@
+// core/construction/grid_statistics.h: what a grid build reports, the same for every backend.
+#pragma once
+
+#include <cstdint>
+
+#include "irgrid/accelerator.h"
+#include "irgrid/build_config.h"
+#include "irgrid/kernel/grid_layout.h"
+#include "irgrid/kernel/triangle.h"
+
+namespace irgrid {
+
+/// Fills the grid statistics and total bytes of `out` from a built grid's scalars;
+/// empty_radii_bytes is the size of its empty radii (0 without them), peak_build_bytes the
+/// build's transient memory.
+inline void record_grid_statistics(const GridInfo& g, std::uint32_t top_level_refs, bool compressed,
+                                   std::uint64_t empty_radii_bytes, const BuildConfig& config,
+                                   std::uint64_t peak_build_bytes, BuildStats& out) {
+  GridStats s;
+  s.top_level_references = top_level_refs;
+  s.cells = g.num_cells;
+  s.references = g.num_refs;
+  s.voxel_map_entries = g.num_entries;
+  for (int a = 0; a < 3; ++a)
+    s.top_dims[a] = std::uint32_t(g.top_dims[a]);
+  s.depth = std::uint32_t(g.shift);
+  s.compressed_cells = compressed;
+  s.lambda2_used = config.shape == BuildConfig::Shape::irregular
+                       ? effective_lambda2(config, top_level_refs)
+                       : double(config.lambda2);
+  s.cells_bytes = compressed ? (std::uint64_t(g.num_cells) + 1) * sizeof(CompactCell)
+                             : std::uint64_t(g.num_cells) * sizeof(Cell);
+  s.references_bytes = std::uint64_t(g.num_refs) * sizeof(std::uint32_t);
+  s.voxel_map_bytes = std::uint64_t(g.num_entries) * sizeof(Entry);
+  s.triangles_bytes = std::uint64_t(g.num_triangles) * sizeof(TriangleVertices);
+  s.empty_radii_bytes = empty_radii_bytes;
+  s.peak_build_bytes = peak_build_bytes;
+  out.memory_bytes = s.cells_bytes + s.references_bytes + s.voxel_map_bytes + s.triangles_bytes +
+                     s.empty_radii_bytes;
+  out.grid = s;
+}
+
+}  // namespace irgrid

@@ -1,0 +1,316 @@
+// core/construction/merge.h: SAH-driven merging of neighbouring cells, in parallel sweeps per axis.
+//
+// Pérard-Gayot, Kalojanov, Slusallek, "GPU Ray Tracing using Irregular Grids", EG 2017, §3.2.
+// Which cells pair up in a sweep is decided in merge_pairs.h; here the pairs become cells, by
+// rebuilding the arrays or, in sweeps that merge few cells, in place, and sweeps repeat in rounds.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <utility>
+
+#include "core/construction/merge_pairs.h"
+#include "core/number_text.h"
+#include "irgrid/error.h"
+
+namespace irgrid {
+
+namespace merge_detail {
+
+/// A box no proposal can align with: absorbed cells get it, so a lookup that lands on one of
+/// their map leaves finds no partner, as it would find none in the cell that absorbed it.
+IRGRID_HD inline Cell absorbed_cell() {
+  return {{-1, -1, -1}, 0, {-1, -1, -1}, 0};
+}
+
+/// The cell that absorbed `c` in place, following earlier absorptions; `c` itself if it is live.
+IRGRID_HD inline std::uint32_t live_owner(const std::uint32_t* forward, std::uint32_t c) {
+  while (forward[c] != kNoCell)
+    c = forward[c];
+  return c;
+}
+
+/// Whether cell i heads a pair of this sweep: it proposed, and it is not absorbed itself.
+IRGRID_HD inline bool heads_pair(const std::uint8_t* parity, const std::uint32_t* next,
+                                 std::size_t i) {
+  return parity[i] == 0 && next[i] != kNoCell;
+}
+
+/// Whether cell i leaves the array in a rebuilding sweep: absorbed by its predecessor now, or
+/// absorbed in place earlier (`absorbed_by`, see apply_merges_in_place; nullptr: none).
+IRGRID_HD inline bool leaves_the_array(const std::uint8_t* parity, const std::uint32_t* absorbed_by,
+                                       std::size_t i) {
+  return parity[i] != 0 || (absorbed_by && absorbed_by[i] != kNoCell);
+}
+
+/// Wakes, per axis, the owner of the voxel below merged cell m's lower corner: a new cell may
+/// be its partner now (merge_pairs.h). `forward` resolves cells absorbed in place (nullptr:
+/// the map names live cells only).
+IRGRID_HD inline void wake_cells_below(const GridInfo& info, const Entry* entries, const Cell& m,
+                                       std::uint32_t* quiet, const std::uint32_t* forward) {
+  for (int axis = 0; axis < 3; ++axis) {
+    if (m.lo[axis] == 0) continue;
+    Voxel below{m.lo[0], m.lo[1], m.lo[2]};
+    below[axis] = m.lo[axis] - 1;
+    std::uint32_t owner = lookup_cell(info, entries, below);
+    if (forward) owner = live_owner(forward, owner);
+    atomic_and(&quiet[owner], ~(1u << axis));
+  }
+}
+
+/// Turns the resolved pairs into new cells and references, scans giving the new cell ids and
+/// reference offsets, and points every leaf of the voxel map at its new cell. `quiet` (one entry
+/// per cell, see propose_merges) is carried over to the new cells: cleared for merged cells and,
+/// when `track` is set, for the cells below a merged cell's lower corner. Cells absorbed by
+/// earlier in-place sweeps (`forward`, see apply_merges_in_place) are dropped, their map leaves
+/// pointed at the cell that absorbed them, and `forward` is emptied.
+template <typename Exec>
+void apply_merges(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
+                  const std::uint32_t* union_size, const std::uint8_t* parity,
+                  typename Exec::template Buffer<std::uint32_t>& quiet,
+                  typename Exec::template Buffer<std::uint32_t>& forward, bool track) {
+  const std::uint32_t n = grid.info.num_cells;
+  const Cell* cells = grid.cells.data();
+  const std::uint32_t* refs = grid.refs.data();
+  auto new_id_buffer = exec.template allocate<std::uint32_t>(n);
+  auto new_begin_buffer = exec.template allocate<std::uint32_t>(n);
+  std::uint32_t *new_id = new_id_buffer.data(), *new_begin = new_begin_buffer.data();
+  // Odd positions are absorbed; even ones that proposed merge forward.
+  const std::uint32_t* absorbed_by = forward.size() != 0 ? forward.data() : nullptr;
+  exec.for_each("merge counts", n, [=] IRGRID_HD(std::size_t i) {
+    const bool absorbed = leaves_the_array(parity, absorbed_by, i),
+               merges = !absorbed && next[i] != kNoCell;
+    new_id[i] = absorbed ? 0 : 1;
+    new_begin[i] = absorbed ? 0 : (merges ? union_size[i] : cells[i].end - cells[i].begin);
+  });
+  const std::uint32_t num_cells = exec.exclusive_scan("merge cell ids", new_id, new_id, n);
+  const std::uint32_t num_refs = exec.exclusive_scan("merge ref offsets", new_begin, new_begin, n);
+  if (num_cells > kMaxEntryTarget || num_refs > kMaxEntryTarget)
+    throw Error(ErrorCode::limit_exceeded, "merging: " + std::to_string(num_cells) + " cells, " +
+                                               std::to_string(num_refs) +
+                                               " references; at most 2^30 - 1 each");
+  auto merged_cells = exec.template allocate<Cell>(num_cells);
+  auto merged_refs = exec.template allocate<std::uint32_t>(num_refs);
+  auto remap_buffer = exec.template allocate<std::uint32_t>(n);
+  auto merged_quiet = exec.template allocate<std::uint32_t>(num_cells);
+  Cell* out_cells = merged_cells.data();
+  std::uint32_t *out_refs = merged_refs.data(), *remap = remap_buffer.data();
+  const std::uint32_t* old_quiet = quiet.data();
+  std::uint32_t* new_quiet = merged_quiet.data();
+  // One thread per surviving cell writes its box and list (the paper copies unmerged lists
+  // warp-cooperatively; a CUDA executor may want that for load balance).
+  exec.for_each("merge write", n, [=] IRGRID_HD(std::size_t i) {
+    // Written by its predecessor, or absorbed in place earlier.
+    if (leaves_the_array(parity, absorbed_by, i)) return;
+    const Cell a = cells[i];
+    const std::uint32_t id = new_id[i], begin = new_begin[i];
+    remap[i] = id;
+    std::uint32_t count = a.end - a.begin;
+    Cell merged = a;
+    if (next[i] != kNoCell) {
+      const Cell b = cells[next[i]];
+      remap[next[i]] = id;  // the absorbed cell's only writer: it has one predecessor
+      count = write_sorted_union(refs + a.begin, a.end - a.begin, refs + b.begin, b.end - b.begin,
+                                 out_refs + begin);
+      for (int axis = 0; axis < 3; ++axis)
+        merged.hi[axis] = b.hi[axis];
+    } else {
+      copy_list(refs + a.begin, count, out_refs + begin);
+    }
+    merged.begin = begin;
+    merged.end = begin + count;
+    out_cells[id] = merged;
+    new_quiet[id] = next[i] != kNoCell ? 0u : old_quiet[i];
+  });
+  Entry* entries = grid.entries.data();
+  exec.for_each("merge remap entries", grid.info.num_entries, [=] IRGRID_HD(std::size_t i) {
+    if (entries[i].log_dim() != 0) return;
+    const std::uint32_t owner = entries[i].index();
+    entries[i] = Entry::leaf(remap[absorbed_by ? live_owner(absorbed_by, owner) : owner]);
+  });
+  const GridInfo info = grid.info;
+  if (track)
+    exec.for_each("merge wake neighbours", n, [=] IRGRID_HD(std::size_t i) {
+      if (heads_pair(parity, next, i))
+        wake_cells_below(info, entries, out_cells[new_id[i]], new_quiet, nullptr);
+    });
+  quiet = std::move(merged_quiet);
+  forward = {};
+  grid.cells = std::move(merged_cells);
+  grid.refs = std::move(merged_refs);
+  grid.info.num_cells = num_cells;
+  grid.info.num_refs = num_refs;
+}
+
+/// Applies a sweep's pairs in place, for sweeps that merge few cells: rebuilding every array
+/// (apply_merges) would cost more than the merges. The lower cell of a pair takes the merged box
+/// and a list written past the references in use (the buffer grows when needed); the upper
+/// cell stays in the array, absorbed: forward names its absorber, it proposes nothing (all quiet
+/// bits) and holds absorbed_cell(). Its map leaves still name it, so lookups that land there find
+/// no partner (see absorbed_cell) and waking resolves them through `forward`. The next
+/// apply_merges drops absorbed cells and points their leaves at their absorbers, so the grid
+/// ends as if every sweep had rebuilt it. Returns the number of pairs merged, or 0 without
+/// changing anything when the lists would pass the limit on references.
+template <typename Exec>
+std::uint32_t apply_merges_in_place(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
+                                    const std::uint32_t* union_size, const std::uint8_t* parity,
+                                    std::uint32_t* quiet,
+                                    typename Exec::template Buffer<std::uint32_t>& forward,
+                                    bool track) {
+  const std::uint32_t n = grid.info.num_cells, used = grid.info.num_refs;
+  auto offset_buffer = exec.template allocate<std::uint32_t>(n);
+  std::uint32_t* offset = offset_buffer.data();
+  exec.for_each("merge in place offsets", n, [=] IRGRID_HD(std::size_t i) {
+    offset[i] = heads_pair(parity, next, i) ? union_size[i] : 0;
+  });
+  const std::uint64_t added = wide_sum(exec, "merge in place offsets", offset, n);
+  if (used + added > kMaxEntryTarget) return 0;
+  exec.exclusive_scan("merge in place offsets", offset, offset, n);
+  if (used + added > grid.refs.size()) {
+    // Room for this sweep's lists and as many again, so that later sweeps rarely grow it.
+    const std::uint64_t room =
+        std::min<std::uint64_t>(kMaxEntryTarget, used + 2 * added + used / 8);
+    auto grown = exec.template allocate<std::uint32_t>(room);
+    const std::uint32_t* from = grid.refs.data();
+    std::uint32_t* to = grown.data();
+    exec.for_each("merge in place grow", used, [=] IRGRID_HD(std::size_t i) { to[i] = from[i]; });
+    grid.refs = std::move(grown);
+  }
+  if (forward.size() == 0) {
+    forward = exec.template allocate<std::uint32_t>(n);
+    std::uint32_t* d_forward = forward.data();
+    exec.for_each("merge in place init", n,
+                  [=] IRGRID_HD(std::size_t i) { d_forward[i] = kNoCell; });
+  }
+  Cell* cells = grid.cells.data();
+  std::uint32_t *refs = grid.refs.data(), *d_forward = forward.data();
+  // One writer per pair: its lower cell's thread, the only one reading either cell.
+  exec.for_each("merge in place write", n, [=] IRGRID_HD(std::size_t i) {
+    if (!heads_pair(parity, next, i)) return;
+    const std::uint32_t j = next[i];
+    const Cell a = cells[i], b = cells[j];
+    Cell merged = a;
+    merged.begin = used + offset[i];
+    merged.end = merged.begin + write_sorted_union(refs + a.begin, a.end - a.begin, refs + b.begin,
+                                                   b.end - b.begin, refs + merged.begin);
+    for (int axis = 0; axis < 3; ++axis)
+      merged.hi[axis] = b.hi[axis];
+    cells[i] = merged;
+    cells[j] = absorbed_cell();
+    quiet[i] = 0;
+    quiet[j] = 7;
+    d_forward[j] = std::uint32_t(i);
+  });
+  const GridInfo info = grid.info;
+  const Entry* entries = grid.entries.data();
+  if (track)
+    exec.for_each("merge in place wake", n, [=] IRGRID_HD(std::size_t i) {
+      if (heads_pair(parity, next, i)) wake_cells_below(info, entries, cells[i], quiet, d_forward);
+    });
+  grid.info.num_refs = std::uint32_t(used + added);
+  return exec.transform_reduce(
+      "merge in place count", n, std::uint32_t(0),
+      [] IRGRID_HD(std::uint32_t x, std::uint32_t y) { return x + y; },
+      [=] IRGRID_HD(std::size_t i) { return std::uint32_t(heads_pair(parity, next, i)); });
+}
+
+/// One sweep along `axis`: proposals, chain resolution, then the merges, in place when fewer
+/// than in_place_below x the cells propose (apply_merges_in_place), else rebuilding the arrays.
+/// Leaves the grid untouched when no cell proposes. `absorbed` counts the cells absorbed in
+/// place and still in the arrays.
+template <typename Exec>
+void merge_sweep(Exec& exec, GridArrays<Exec>& grid, int axis, float cost_ratio, float empty_aspect,
+                 typename Exec::template Buffer<std::uint32_t>& quiet,
+                 typename Exec::template Buffer<std::uint32_t>& forward, std::uint32_t& absorbed,
+                 float in_place_below, bool track) {
+  const std::uint32_t n = grid.info.num_cells;
+  auto next = exec.template allocate<std::uint32_t>(n);
+  auto prev = exec.template allocate<std::uint32_t>(n);
+  auto union_size = exec.template allocate<std::uint32_t>(n);
+  const std::uint32_t proposals =
+      propose_merges(exec, grid, axis, cost_ratio, empty_aspect, next.data(), prev.data(),
+                     union_size.data(), quiet.data(), track);
+  if (proposals == 0) return;
+  const auto parity = chain_parity(exec, prev.data(), n);
+  if (double(proposals) < double(in_place_below) * double(n)) {
+    const std::uint32_t merged = apply_merges_in_place(exec, grid, next.data(), union_size.data(),
+                                                       parity.data(), quiet.data(), forward, track);
+    absorbed += merged;
+    if (merged > 0) return;
+  }
+  apply_merges(exec, grid, next.data(), union_size.data(), parity.data(), quiet, forward, track);
+  absorbed = 0;
+}
+
+/// Drops the cells absorbed by in-place sweeps (apply_merges with no pairs); nothing if none.
+template <typename Exec>
+void drop_absorbed_cells(Exec& exec, GridArrays<Exec>& grid,
+                         typename Exec::template Buffer<std::uint32_t>& quiet,
+                         typename Exec::template Buffer<std::uint32_t>& forward) {
+  if (forward.size() == 0) return;
+  const std::uint32_t n = grid.info.num_cells;
+  auto next = exec.template allocate<std::uint32_t>(n);
+  auto parity = exec.template allocate<std::uint8_t>(n);
+  std::uint32_t* d_next = next.data();
+  std::uint8_t* d_parity = parity.data();
+  exec.for_each("merge drop absorbed", n, [=] IRGRID_HD(std::size_t i) {
+    d_next[i] = kNoCell;
+    d_parity[i] = 0;
+  });
+  apply_merges(exec, grid, d_next, d_next, d_parity, quiet, forward, false);
+}
+
+}  // namespace merge_detail
+
+/// The share of proposing cells below which a sweep merges in place (merge_cells): Sponza's
+/// last 9 of 15 sweeps, each merging under 2% of its cells.
+inline constexpr float kMergeInPlaceBelow = 1.f / 16;
+
+/// Merges neighbouring cells while the SAH does not get worse (§3.2). Runs after assemble_grid
+/// on any form of the voxel map (octree form or compacted): only leaf entries change, so the
+/// map keeps its shape and grid.level_offsets stays valid.
+///
+/// Rounds of sweeps along x, y and z repeat while a round leaves fewer than alpha x the cells it
+/// started with (and removes at least one, so alpha >= 1 terminates too); alpha <= 0 (or NaN)
+/// disables merging. cost_ratio is the SAH's C_t / C_i (>= 0, finite; Error(invalid_argument)
+/// otherwise). empty_aspect bounds the aspect ratio of merged empty cells (empty_merge_keeps_shape;
+/// 0 or >= 1, finite; 0 disables the bound).
+///
+/// Sweeps in which fewer than in_place_below x the cells propose merge in place
+/// (merge_detail::apply_merges_in_place; 0: never), which changes the work, not the result.
+///
+/// Guarantees: cells still tile the virtual grid and the voxel map returns the owner of every
+/// voxel; every list is the sorted, duplicate-free union of the lists of the cells merged into
+/// it, so no reference is lost; the result is bit-identical for any number of threads.
+template <typename Exec>
+void merge_cells(Exec& exec, GridArrays<Exec>& grid, float alpha, float cost_ratio,
+                 float empty_aspect = 0, float in_place_below = kMergeInPlaceBelow) {
+  if (!(cost_ratio >= 0) || !std::isfinite(cost_ratio))
+    throw Error(ErrorCode::invalid_argument,
+                "cost_ratio = " + number_text(cost_ratio) + " must be a number >= 0");
+  if (!(empty_aspect == 0 || (empty_aspect >= 1 && std::isfinite(empty_aspect))))
+    throw Error(ErrorCode::invalid_argument, "empty_aspect = " + number_text(empty_aspect) +
+                                                 " must be 0 (no bound) or a number >= 1");
+  if (!(alpha > 0)) return;
+  auto quiet = exec.template allocate<std::uint32_t>(grid.info.num_cells);
+  std::uint32_t* d_quiet = quiet.data();
+  exec.for_each("merge quiet init", grid.info.num_cells,
+                [=] IRGRID_HD(std::size_t i) { d_quiet[i] = 0; });
+  // The first round merges most cells: waking their neighbours would cost more than the
+  // proposals it saves in the second round, so quiet cells are tracked from the second on.
+  typename Exec::template Buffer<std::uint32_t> forward;
+  std::uint32_t absorbed = 0;
+  for (bool track = false;; track = true) {
+    const std::uint32_t before = grid.info.num_cells - absorbed;
+    for (int axis = 0; axis < 3; ++axis)
+      merge_detail::merge_sweep(exec, grid, axis, cost_ratio, empty_aspect, quiet, forward,
+                                absorbed, in_place_below, track);
+    const std::uint32_t after = grid.info.num_cells - absorbed;
+    if (after == before || double(after) >= double(alpha) * double(before)) break;
+  }
+  merge_detail::drop_absorbed_cells(exec, grid, quiet, forward);
+}
+
+}  // namespace irgrid

@@ -1,0 +1,356 @@
+// core/construction/octree_depth_first.h: the initial grid's octrees and cells, one top cell at a
+// time.
+//
+// Pérard-Gayot et al. 2017, §3.1, built in another order: the same grid as build_octree_levels
+// followed by assemble_grid (octree_levels.h, cells.h), bit for bit, for executors that set
+// kDepthFirstOctrees (the CPU). The level-by-level build suits a GPU: every level is a few wide
+// passes. On a CPU those passes stream (node, triangle) pairs through memory level
+// after level, then sort them twice (cells into Morton order, references by cell). Here each top
+// cell's octree is built depth-first while its few triangles sit in cache, and the parts come
+// out already in their final order, so neither sort is needed:
+//   * a top cell's triangles ascend (the top-level pairs are sorted by cell, stably) and a split
+//     keeps their order in every child, so each list comes out sorted and unique;
+//   * the Morton key of a corner interleaves the top cell's coordinates above the bits inside the
+//     top cell, and children are visited in Morton order (bit 0 x, bit 1 y, bit 2 z), so the
+//     leaves come out in the Morton order of cell_order.h once the top cells are taken in the
+//     Morton order of their own corners (valid while corners fit the key: depth_first_applies);
+//   * a depth-first walk meets the nodes of one level in the order a breadth-first one lists
+//     them, so a split node reserving its block of 8 children at the next level when it is met
+//     lays every level out as build_octree_levels does.
+// The top cells are cut into chunks, each building into its own growing buffers; a second pass
+// copies every chunk to its place and turns its local indices into global ones.
+#pragma once
+
+#include <algorithm>
+#include <atomic>
+#include <bit>
+#include <cstdint>
+#include <vector>
+
+#include "core/construction/cells.h"
+
+namespace irgrid {
+
+/// Whether build_top_cell_octrees gives the grid the level-by-level build gives: corners must
+/// fit the 21 bits per axis of the Morton key, so that no two cells tie in cell_order.h.
+inline bool depth_first_applies(const GridInfo& info) {
+  return morton_bits(info) <= 21;
+}
+
+/// What one chunk of consecutive top cells (x-fastest order) built, with local indices: an inner
+/// entry at level L names a slot of the chunk's level L + 1, a leaf entry a cell counted from its
+/// own top cell's first, and a cell's range counts from its top cell's first reference.
+template <typename Exec>
+struct ChunkOctrees {
+  std::vector<typename Exec::template Buffer<Entry>> levels;  ///< entries of each octree level
+  typename Exec::template Buffer<Cell> cells;
+  typename Exec::template Buffer<std::uint32_t> refs;
+  /// Per top cell of the chunk, in order, the entries it added to each level (levels_per_top).
+  std::vector<std::uint32_t> entries_per_level;
+};
+
+/// The octrees of all top cells, chunk by chunk, and the per-top-cell totals the copy needs.
+template <typename Exec>
+struct TopCellOctrees {
+  std::vector<ChunkOctrees<Exec>> chunks;
+  std::vector<std::uint32_t> cells_per_top, refs_per_top;
+  std::uint32_t top_cells = 0, levels_per_top = 0, top_cells_per_chunk = 0;
+};
+
+namespace depth_first_detail {
+
+/// Entries, cells and references all top cells have built so far, for the limits: a runaway
+/// octree (a huge lambda2) fails once the totals pass the 30-bit limits or the build would
+/// outgrow the machine's memory (`memory_bytes`, 0: unknown), not when the system kills it.
+struct RunningTotals {
+  std::atomic<std::uint64_t> entries{0}, cells{0}, refs{0};
+  std::uint64_t memory_bytes = 0;
+};
+
+/// Builds the octree of one top cell into a chunk (the subdivision rule of plan_level).
+template <typename Exec>
+class TopCellBuilder {
+ public:
+  TopCellBuilder(const GridInfo& info, const TriangleVertices* triangles, const OctreeRule& rule,
+                 ChunkOctrees<Exec>& chunk, RunningTotals& totals)
+      : info_(info), triangles_(triangles), rule_(rule), chunk_(chunk), totals_(totals) {}
+
+  /// Builds a top cell (lower voxel `lo`, octree depth `depth`) over its ascending triangles,
+  /// its level-0 entry going to slot `slot` of the chunk's level 0.
+  void build(Voxel lo, std::int32_t depth, const std::uint32_t* tris, std::uint32_t count,
+             std::uint32_t slot) {
+    top_depth_ = depth;
+    first_cell_ = std::uint32_t(chunk_.cells.size());
+    first_ref_ = std::uint32_t(chunk_.refs.size());
+    reserve_lists(count);
+    std::copy(tris, tris + count, lists_.data());
+    lists_top_ = count;
+    node(0, lo, 0, count, slot);
+    flush_totals();
+  }
+
+ private:
+  void node(std::int32_t level, Voxel lo, std::size_t list_begin, std::uint32_t count,
+            std::uint32_t slot) {
+    bool split = rule_.splits_by_depth(level, top_depth_, count);
+    const std::size_t mask_begin = masks_top_;
+    // Children's size; nodes of the deepest level never split.
+    const std::int32_t half =
+        level < info_.shift ? std::int32_t(1) << (info_.shift - level - 1) : 0;
+    if (split || rule_.count_candidate(level, count)) {
+      const NodeSplit split_node = node_split(info_, lo, half);
+      if (masks_.size() < mask_begin + count) masks_.resize(2 * (mask_begin + count));
+      masks_top_ = mask_begin + count;
+      std::uint64_t child_refs = 0;
+      for (std::uint32_t k = 0; k < count; ++k) {
+        const std::uint32_t mask =
+            child_overlap_mask(split_node, triangles_[lists_[list_begin + k]]);
+        masks_[mask_begin + k] = std::uint8_t(mask);
+        child_refs += popcount8(mask);
+      }
+      if (!split) split = rule_.count_split_separates(count, std::uint32_t(child_refs));
+    }
+    auto& entries = chunk_.levels[std::size_t(level)];
+    if (!split) {
+      masks_top_ = mask_begin;
+      entries[slot] = Entry::leaf(std::uint32_t(chunk_.cells.size()) - first_cell_);
+      const std::int32_t size = std::int32_t(1) << (info_.shift - level);
+      const auto begin = std::uint32_t(chunk_.refs.size()) - first_ref_;
+      chunk_.cells.push_back(
+          {{lo.x, lo.y, lo.z}, begin, {lo.x + size, lo.y + size, lo.z + size}, begin + count});
+      chunk_.refs.insert(chunk_.refs.end(), lists_.data() + list_begin,
+                         lists_.data() + list_begin + count);
+      pending_refs_ += count;
+      ++pending_cells_;
+      return;
+    }
+    auto& children = chunk_.levels[std::size_t(level) + 1];
+    const auto base = std::uint32_t(children.size());
+    children.resize(base + 8);
+    entries[slot] = Entry::inner(1, base);
+    pending_entries_ += 8;
+    if (pending_entries_ >= kFlushEvery || pending_refs_ >= kFlushEvery) flush_totals();
+    for (std::uint32_t bit = 0; bit < 8; ++bit) {
+      // Branch-free: every triangle is written, and the end moves on for those in the child.
+      const std::size_t child_begin = lists_top_;
+      reserve_lists(child_begin + count);
+      std::uint32_t* out = lists_.data() + child_begin;
+      const std::uint32_t* in = lists_.data() + list_begin;
+      const std::uint8_t* masks = masks_.data() + mask_begin;
+      std::uint32_t kept = 0;
+      for (std::uint32_t k = 0; k < count; ++k) {
+        out[kept] = in[k];
+        kept += masks[k] >> bit & 1;
+      }
+      lists_top_ = child_begin + kept;
+      const Voxel child{lo.x + ((bit & 1) ? half : 0), lo.y + ((bit & 2) ? half : 0),
+                        lo.z + ((bit & 4) ? half : 0)};
+      node(level + 1, child, child_begin, kept, base + bit);
+      lists_top_ = child_begin;
+    }
+    masks_top_ = mask_begin;
+  }
+
+  /// Room for `size` entries of the list stack (its contents kept; the vector may move).
+  void reserve_lists(std::size_t size) {
+    if (lists_.size() < size) lists_.resize(2 * size);
+  }
+
+  /// Adds what this builder made since the last call to the shared totals and checks the
+  /// limits (entries, references, memory) with the level-by-level build's checks.
+  void flush_totals() {
+    const std::uint64_t entries = totals_.entries += pending_entries_;
+    const std::uint64_t cells = totals_.cells += pending_cells_;
+    const std::uint64_t refs = totals_.refs += pending_refs_;
+    pending_entries_ = pending_cells_ = pending_refs_ = 0;
+    check_entry_count(entries);
+    check_reference_count(refs, "octree references");
+    check_octree_memory(totals_.memory_bytes, entries, cells, refs);
+  }
+
+  static constexpr std::uint64_t kFlushEvery = 4096;
+  const GridInfo& info_;
+  const TriangleVertices* triangles_;
+  const OctreeRule& rule_;
+  ChunkOctrees<Exec>& chunk_;
+  RunningTotals& totals_;
+  std::int32_t top_depth_ = 0;
+  std::uint32_t first_cell_ = 0, first_ref_ = 0;
+  std::uint64_t pending_entries_ = 0, pending_cells_ = 0, pending_refs_ = 0;
+  /// The triangle lists of the nodes on the current path, each after its parent's, and their
+  /// children masks: stacks with their tops, so a node's list is found by its offset (the
+  /// vectors may move; they only grow).
+  std::vector<std::uint32_t> lists_;
+  std::vector<std::uint8_t> masks_;
+  std::size_t lists_top_ = 0, masks_top_ = 0;
+};
+
+}  // namespace depth_first_detail
+
+/// Builds the octree of every top cell (pass 1 of 2). `pairs` are the top-level (top cell,
+/// triangle) pairs, `refs_per_top` their count per top cell. Requires an executor whose buffers
+/// grow on the host (kDepthFirstOctrees) and depth_first_applies(info).
+template <typename Exec>
+TopCellOctrees<Exec> build_top_cell_octrees(Exec& exec, const GridInfo& info,
+                                            const TriangleVertices* triangles, RefPairs<Exec> pairs,
+                                            const std::uint32_t* refs_per_top,
+                                            const OctreeRule& rule) {
+  TopCellOctrees<Exec> out;
+  out.top_cells = std::uint32_t(info.top_dims[0]) * std::uint32_t(info.top_dims[1]) *
+                  std::uint32_t(info.top_dims[2]);
+  out.levels_per_top = std::uint32_t(info.shift) + 1;
+  out.top_cells_per_chunk = 64;
+  const std::uint32_t n = out.top_cells, per_chunk = out.top_cells_per_chunk;
+  // Each top cell's triangles, ascending: the pairs come triangle-major and the sort is stable.
+  exec.sort_pairs("octree top-cell lists", pairs.cell.data(), pairs.tri.data(), pairs.count,
+                  std::max(1, int(std::bit_width(n))));
+  pairs.cell = {};
+  std::vector<std::uint32_t> first_tri(n);
+  exec.exclusive_scan("octree top-cell lists", refs_per_top, first_tri.data(), n);
+  out.chunks.resize((n + per_chunk - 1) / per_chunk);
+  out.cells_per_top.resize(n);
+  out.refs_per_top.resize(n);
+  depth_first_detail::RunningTotals totals;
+  totals.memory_bytes = exec.memory_budget();
+  ChunkOctrees<Exec>* chunks = out.chunks.data();
+  std::uint32_t *cells_per_top = out.cells_per_top.data(), *refs_out = out.refs_per_top.data();
+  const std::uint32_t levels = out.levels_per_top;
+  const std::uint32_t *tri = pairs.tri.data(), *first = first_tri.data();
+  exec.for_each("octree top cells", out.chunks.size(), [&, chunks](std::size_t c) {
+    ChunkOctrees<Exec>& chunk = chunks[c];
+    const auto top_begin = std::uint32_t(c) * per_chunk;
+    const std::uint32_t top_end = std::min(n, top_begin + per_chunk);
+    chunk.levels.resize(levels);
+    chunk.levels[0].resize(top_end - top_begin);
+    chunk.entries_per_level.resize(std::size_t(top_end - top_begin) * levels);
+    depth_first_detail::TopCellBuilder<Exec> builder(info, triangles, rule, chunk, totals);
+    std::vector<std::uint32_t> level_sizes(levels);
+    for (std::uint32_t t = top_begin; t < top_end; ++t) {
+      for (std::uint32_t l = 0; l < levels; ++l)
+        level_sizes[l] = std::uint32_t(chunk.levels[l].size());
+      const auto cells_before = std::uint32_t(chunk.cells.size());
+      builder.build(top_cell_corner(info, t), rule.depths[t], tri + first[t], refs_per_top[t],
+                    t - top_begin);
+      cells_per_top[t] = std::uint32_t(chunk.cells.size()) - cells_before;
+      refs_out[t] = chunk.cells.back().end;
+      std::uint32_t* added = chunk.entries_per_level.data() + std::size_t(t - top_begin) * levels;
+      for (std::uint32_t l = 0; l < levels; ++l)
+        added[l] = std::uint32_t(chunk.levels[l].size()) - level_sizes[l];
+      added[0] = 1;  // level 0 holds one slot per top cell, sized up front
+    }
+  });
+  return out;
+}
+
+/// Copies the chunks into the grid's arrays (pass 2 of 2): the octree-form voxel map with its
+/// level offsets, the cells in Morton order with their ranges, the references. Consumes them.
+template <typename Exec>
+void assemble_top_cell_octrees(Exec& exec, TopCellOctrees<Exec>& octrees, GridArrays<Exec>& grid) {
+  const GridInfo& info = grid.info;
+  const std::uint32_t n = octrees.top_cells, levels = octrees.levels_per_top;
+  const auto chunk_count = std::uint32_t(octrees.chunks.size());
+  // Each level's entries: chunk after chunk (the top cells' x-fastest order).
+  std::vector<std::uint64_t> chunk_level_base(std::size_t(chunk_count) * levels);
+  std::vector<std::uint64_t> level_offsets(levels + 1, 0);
+  for (std::uint32_t l = 0; l < levels; ++l) {
+    std::uint64_t sum = 0;
+    for (std::uint32_t c = 0; c < chunk_count; ++c) {
+      chunk_level_base[std::size_t(c) * levels + l] = sum;
+      sum += octrees.chunks[c].levels[l].size();
+    }
+    level_offsets[l + 1] = level_offsets[l] + sum;
+  }
+  const std::uint64_t num_entries = level_offsets[levels];
+  check_entry_count(num_entries);
+  // Cells and references: top cell after top cell in the Morton order of their corners.
+  auto keys = exec.template allocate<std::uint64_t>(n);
+  auto order = exec.template allocate<std::uint32_t>(n);
+  std::uint64_t* d_keys = keys.data();
+  std::uint32_t* d_order = order.data();
+  exec.for_each("octree top-cell order", n, [=] IRGRID_HD(std::size_t i) {
+    const Voxel v = top_cell_corner(info, std::uint32_t(i));
+    const std::int32_t corner[3] = {v.x, v.y, v.z};
+    d_keys[i] = morton_key(corner, 0);
+    d_order[i] = std::uint32_t(i);
+  });
+  exec.sort_pairs("octree top-cell order", d_keys, d_order, n, std::max(1, 3 * morton_bits(info)));
+  keys = {};
+  std::vector<std::uint32_t> cell_base(n), ref_base(n), ranked(n);
+  std::uint32_t* d_ranked = ranked.data();
+  const auto base_in_morton_order = [&](const std::vector<std::uint32_t>& per_top,
+                                        std::vector<std::uint32_t>& base) {
+    const std::uint32_t* counts = per_top.data();
+    exec.for_each("octree top-cell order", n,
+                  [=](std::size_t k) { d_ranked[k] = counts[d_order[k]]; });
+    const std::uint64_t total = wide_sum(exec, "octree top-cell order", d_ranked, n);
+    exec.exclusive_scan("octree top-cell order", d_ranked, d_ranked, n);
+    std::uint32_t* d_base = base.data();
+    exec.for_each("octree top-cell order", n,
+                  [=](std::size_t k) { d_base[d_order[k]] = d_ranked[k]; });
+    return total;
+  };
+  // The builders checked the running totals; cells are fewer than entries.
+  const auto num_cells = std::uint32_t(base_in_morton_order(octrees.cells_per_top, cell_base));
+  const std::uint64_t all_refs = base_in_morton_order(octrees.refs_per_top, ref_base);
+  check_reference_count(all_refs, "octree references");
+  const auto num_refs = std::uint32_t(all_refs);
+  grid.entries = exec.template allocate<Entry>(num_entries);
+  grid.cells = exec.template allocate<Cell>(num_cells);
+  grid.refs = exec.template allocate<std::uint32_t>(num_refs);
+  Entry* entries = grid.entries.data();
+  Cell* cells = grid.cells.data();
+  std::uint32_t* refs = grid.refs.data();
+  ChunkOctrees<Exec>* chunks = octrees.chunks.data();
+  const std::uint32_t per_chunk = octrees.top_cells_per_chunk;
+  const std::uint32_t *d_cell_base = cell_base.data(), *d_ref_base = ref_base.data();
+  const std::uint32_t *cells_per_top = octrees.cells_per_top.data(),
+                      *refs_per_top = octrees.refs_per_top.data();
+  exec.for_each("octree copy", chunk_count, [&, chunks](std::size_t c) {
+    ChunkOctrees<Exec>& chunk = chunks[c];
+    const auto top_begin = std::uint32_t(c) * per_chunk;
+    const std::uint32_t top_end = std::min(n, top_begin + per_chunk);
+    const std::uint64_t* chunk_base = chunk_level_base.data() + std::size_t(c) * levels;
+    std::vector<std::uint32_t> at(levels, 0);
+    std::uint32_t cell_at = 0, ref_at = 0;
+    for (std::uint32_t t = top_begin; t < top_end; ++t) {
+      const std::uint32_t* added =
+          chunk.entries_per_level.data() + std::size_t(t - top_begin) * levels;
+      for (std::uint32_t l = 0; l < levels; ++l) {
+        const std::uint64_t out = level_offsets[l] + chunk_base[l];
+        const std::uint64_t children =
+            l + 1 < levels ? level_offsets[l + 1] + chunk_base[l + 1] : 0;
+        for (std::uint32_t k = at[l]; k < at[l] + added[l]; ++k) {
+          const Entry e = chunk.levels[l][k];
+          entries[out + k] = e.log_dim() == 0
+                                 ? Entry::leaf(d_cell_base[t] + e.index())
+                                 : Entry::inner(1, std::uint32_t(children + e.index()));
+        }
+        at[l] += added[l];
+      }
+      // The top cell's cells and references, each contiguous in the chunk and in the grid.
+      Cell* to = cells + d_cell_base[t];
+      const std::uint32_t ref_base_t = d_ref_base[t];
+      for (std::uint32_t k = 0; k < cells_per_top[t]; ++k) {
+        Cell cell = chunk.cells[cell_at + k];
+        cell.begin += ref_base_t;
+        cell.end += ref_base_t;
+        to[k] = cell;
+      }
+      std::copy(chunk.refs.begin() + ref_at, chunk.refs.begin() + (ref_at + refs_per_top[t]),
+                refs + ref_base_t);
+      cell_at += cells_per_top[t];
+      ref_at += refs_per_top[t];
+    }
+    chunk = {};  // freed as soon as copied
+  });
+  grid.level_offsets.clear();
+  for (std::uint32_t l = 0; l <= levels; ++l) {
+    if (l > 0 && level_offsets[l] == level_offsets[l - 1]) break;  // no deeper nodes
+    grid.level_offsets.push_back(std::uint32_t(level_offsets[l]));
+  }
+  grid.info.num_cells = num_cells;
+  grid.info.num_refs = num_refs;
+  grid.info.num_entries = std::uint32_t(num_entries);
+}
+
+}  // namespace irgrid

@@ -1,0 +1,379 @@
+// core/construction/octree_levels.h: subdivides the top cells into octrees, level by level.
+//
+// Pérard-Gayot et al. 2017, §3.1 (the "adaptive, dense" start): a node with references and
+// depth budget left splits into 2x2x2 children and re-inserts each of its triangles into the
+// children it overlaps (exact, conservative test); empty nodes never split, so empty space stays
+// as large leaves. Every leaf of every level becomes a cell, empty ones included. The voxel map
+// comes out in octree form: one dense block of 8 entries per split node.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/construction/memory_budget.h"
+#include "core/construction/top_level_refs.h"
+#include "irgrid/build_config.h"
+
+namespace irgrid {
+
+/// The octree-form result: all levels' entries, cells and (cell, triangle) pairs concatenated.
+template <typename Exec>
+struct OctreeLevels {
+  std::vector<typename Exec::template Buffer<Entry>> entries;  ///< one buffer per level
+  std::vector<typename Exec::template Buffer<Cell>> cells;     ///< leaves of each level
+  std::vector<RefPairs<Exec>> pairs;                           ///< (cell, triangle) of each level
+  std::uint32_t num_entries = 0, num_cells = 0, num_refs = 0;
+};
+
+/// The nodes of one octree level: their lower voxel and their top cell.
+template <typename Exec>
+struct LevelNodes {
+  typename Exec::template Buffer<Voxel> lo;
+  typename Exec::template Buffer<std::uint32_t> top;
+  std::uint32_t count = 0;
+};
+
+/// The lower voxel of top cell `index` (x-fastest order).
+IRGRID_HD inline Voxel top_cell_corner(const GridInfo& info, std::uint32_t index) {
+  const auto dx = std::uint32_t(info.top_dims[0]), dy = std::uint32_t(info.top_dims[1]);
+  return {std::int32_t(index % dx) << info.shift, std::int32_t(index / dx % dy) << info.shift,
+          std::int32_t(index / dx / dy) << info.shift};
+}
+
+template <typename Exec>
+LevelNodes<Exec> top_level_nodes(Exec& exec, const GridInfo& info) {
+  const std::uint32_t count = std::uint32_t(info.top_dims[0]) * std::uint32_t(info.top_dims[1]) *
+                              std::uint32_t(info.top_dims[2]);
+  LevelNodes<Exec> nodes{exec.template allocate<Voxel>(count),
+                         exec.template allocate<std::uint32_t>(count), count};
+  Voxel* lo = nodes.lo.data();
+  std::uint32_t* top = nodes.top.data();
+  exec.for_each("top nodes", count, [=] IRGRID_HD(std::size_t i) {
+    lo[i] = top_cell_corner(info, std::uint32_t(i));
+    top[i] = std::uint32_t(i);
+  });
+  return nodes;
+}
+
+/// A node about to be split (lower voxel `lo`, children of `half` voxels) in world units: what
+/// child_overlap_mask needs of it, computed once for all of its triangles.
+struct NodeSplit {
+  Vec3<float> lo, mid, hi;
+  triangle_box_detail::OctantBox<float> octants;
+  float padding;
+};
+
+IRGRID_HD inline NodeSplit node_split(const GridInfo& info, Voxel lo, std::int32_t half) {
+  NodeSplit n;
+  for (int a = 0; a < 3; ++a) {
+    n.lo[a] = voxel_to_world(info, a, lo[a]);
+    n.mid[a] = voxel_to_world(info, a, lo[a] + half);
+    n.hi[a] = voxel_to_world(info, a, lo[a] + 2 * half);
+  }
+  n.octants = triangle_box_detail::octant_box(n.lo, n.mid, n.hi, info.padding);
+  n.padding = info.padding;
+  return n;
+}
+
+/// 8-bit mask of the children of a node that the triangle overlaps; bit 0 selects the upper x
+/// half, bit 1 y, bit 2 z.
+IRGRID_HD inline std::uint32_t child_overlap_mask(const NodeSplit& node,
+                                                  const TriangleVertices& t) {
+  // Cull by the triangle's padded box against the node's mid-planes first (cheap), then run the
+  // exact test on the children left, all at once.
+  const BoxF box = triangle_box(t);
+  std::uint32_t mask = 0xFF;
+  for (int a = 0; a < 3; ++a) {
+    if (box.hi[a] + node.padding < node.mid[a]) mask &= ~upper_octants(a);
+    if (box.lo[a] - node.padding > node.mid[a]) mask &= upper_octants(a);
+  }
+  // One child left: the triangle meets the node's padded box (it was kept there by the same
+  // conservative test), and every such point lies within that child's padded box.
+  if ((mask & (mask - 1)) == 0) return mask;
+  // A child holding a vertex overlaps it (exact); the others take the separating-axis test.
+  const std::uint32_t held =
+      mask & octants_holding_vertex(t, node.lo, node.mid, node.hi, node.padding);
+  if (held == mask) return mask;
+  return held | octants_overlapped(t.p0, t.p1, t.p2, node.octants, mask & ~held);
+}
+
+/// child_overlap_mask of the node with lower voxel `lo` and children of `half` voxels.
+IRGRID_HD inline std::uint32_t child_overlap_mask(const GridInfo& info, Voxel lo, std::int32_t half,
+                                                  const TriangleVertices& t) {
+  return child_overlap_mask(node_split(info, lo, half), t);
+}
+
+/// Throws Error{out_of_memory} when a build whose initial grid holds `entries` map entries,
+/// `cells` cells and `refs` references would outgrow `memory_bytes` (check_memory_budget). Its
+/// peak holds those arrays about 3 times: the octrees' own buffers and the grid's arrays they
+/// become, then the old and the new arrays of a merge sweep. Octree builds check as they grow,
+/// so that a runaway octree (a huge lambda2) stops with an error, not killed by the system.
+inline void check_octree_memory(std::uint64_t memory_bytes, std::uint64_t entries,
+                                std::uint64_t cells, std::uint64_t refs) {
+  check_memory_budget(
+      memory_bytes,
+      3 * (entries * sizeof(Entry) + cells * sizeof(Cell) + refs * sizeof(std::uint32_t)),
+      [&] {
+        return "octrees: " + std::to_string(cells) + " cells, " + std::to_string(entries) +
+               " map entries and " + std::to_string(refs) + " references so far; the build";
+      },
+      "lower lambda2 or min_cells");
+}
+
+/// Number of set bits of an 8-bit mask, without a library call (x86-64 without -mpopcnt turns
+/// std::popcount into one).
+IRGRID_HD inline std::uint32_t popcount8(std::uint32_t x) {
+  x = x - ((x >> 1) & 0x55u);
+  x = (x & 0x33u) + ((x >> 2) & 0x33u);
+  return (x + (x >> 4)) & 0x0Fu;
+}
+
+/// Indices i < count with keep(i), in order.
+template <typename Exec, typename Keep>
+typename Exec::template Buffer<std::uint32_t> select_indices(Exec& exec, const char* name,
+                                                             std::uint32_t count, Keep keep,
+                                                             std::uint32_t& selected) {
+  auto all = exec.template allocate<std::uint32_t>(count);
+  auto out = exec.template allocate<std::uint32_t>(count);
+  std::uint32_t* d_all = all.data();
+  exec.for_each(name, count, [=] IRGRID_HD(std::size_t i) { d_all[i] = std::uint32_t(i); });
+  selected = std::uint32_t(
+      exec.select_if(name, d_all, out.data(), count,
+                     [=] IRGRID_HD(std::size_t, std::uint32_t i) { return keep(i); }));
+  return out;
+}
+
+/// When an octree node splits: always below its top cell's depth while it holds references (or
+/// even empty, for the two-level grid); and, below count_split_depth, while it holds more than
+/// split_refs references and the split separates them (see count_split_separates).
+struct OctreeRule {
+  const std::int32_t* depths;  ///< per top cell
+  bool split_empty;
+  std::uint32_t split_refs;
+  std::int32_t count_split_depth;
+
+  IRGRID_HD bool splits_by_depth(std::int32_t level, std::int32_t top_depth,
+                                 std::uint32_t refs) const {
+    return level < top_depth && (refs > 0 || split_empty);
+  }
+  IRGRID_HD bool count_candidate(std::int32_t level, std::uint32_t refs) const {
+    return refs > split_refs && level < count_split_depth;
+  }
+  /// A count split must separate the node's triangles: the children together may hold at most
+  /// twice its references. Triangles larger than the children land in several of them, and
+  /// splitting further only multiplies the references (a fan around a vertex, or long triangles
+  /// along a thin cylinder, land in every child on their path, level after level: Conference's
+  /// references grew from 0.78 to 1.46 million with a surface-area test alone, for 1.5% fewer
+  /// triangle tests per ray). The bound trades the two (docs/benchmarks.md, ninth session):
+  /// at 1.5 times, the teapot in the stadium's spout kept lists of hundreds of long triangles
+  /// (88 tests per view-0 primary ray); at 2 times it takes 45, for 25% more references on
+  /// Conference (+8% memory) and 2% more on Crown; with no bound, 39 tests and 75% more
+  /// references on Conference.
+  IRGRID_HD bool count_split_separates(std::uint32_t refs, std::uint32_t child_refs) const {
+    return std::uint64_t(child_refs) <= std::uint64_t(refs) * 2;
+  }
+};
+
+/// Per-node decisions of one level: which nodes split, where their children and leaves go.
+template <typename Exec>
+struct LevelPlan {
+  typename Exec::template Buffer<std::uint32_t> child_base;  ///< first child (split nodes)
+  typename Exec::template Buffer<std::uint32_t>
+      leaf_index;                                      ///< leaf rank among this level's leaves
+  typename Exec::template Buffer<std::uint8_t> split;  ///< kNoSplit, kSplitByDepth or ...ByCount
+  /// Per pair, its children mask, computed for the pairs of count candidates only.
+  typename Exec::template Buffer<std::uint8_t> pair_masks;
+  std::uint32_t children = 0, leaves = 0;
+};
+
+inline constexpr std::uint8_t kNoSplit = 0, kSplitByDepth = 1, kSplitByCount = 2;
+
+template <typename Exec>
+LevelPlan<Exec> plan_level(Exec& exec, const GridInfo& info, const TriangleVertices* triangles,
+                           const LevelNodes<Exec>& nodes, const RefPairs<Exec>& pairs,
+                           const OctreeRule& rule, std::int32_t level) {
+  const std::uint32_t n = nodes.count;
+  const bool count_splits = level < rule.count_split_depth;
+  LevelPlan<Exec> plan{exec.template allocate<std::uint32_t>(n),
+                       exec.template allocate<std::uint32_t>(n),
+                       exec.template allocate<std::uint8_t>(n),
+                       exec.template allocate<std::uint8_t>(count_splits ? pairs.count : 0)};
+  std::uint32_t *child_base = plan.child_base.data(), *leaf_index = plan.leaf_index.data();
+  std::uint8_t *split = plan.split.data(), *pair_masks = plan.pair_masks.data();
+  // leaf_index holds, until the scan, the references the children of a count candidate would get.
+  exec.for_each("level clear", n, [=] IRGRID_HD(std::size_t i) {
+    child_base[i] = 0;
+    leaf_index[i] = 0;
+  });
+  const std::uint32_t *pair_node = pairs.cell.data(), *pair_tri = pairs.tri.data();
+  exec.for_each("level count", pairs.count,
+                [=] IRGRID_HD(std::size_t i) { atomic_add(&child_base[pair_node[i]], 1u); });
+  const std::uint32_t* top = nodes.top.data();
+  const Voxel* lo = nodes.lo.data();
+  const OctreeRule r = rule;
+  if (count_splits) {
+    const std::int32_t half = std::int32_t(1) << (info.shift - level - 1);
+    exec.for_each("level child counts", pairs.count, [=] IRGRID_HD(std::size_t i) {
+      const std::uint32_t node = pair_node[i];
+      if (r.splits_by_depth(level, r.depths[top[node]], child_base[node]) ||
+          !r.count_candidate(level, child_base[node]))
+        return;
+      const std::uint32_t mask = child_overlap_mask(info, lo[node], half, triangles[pair_tri[i]]);
+      pair_masks[i] = std::uint8_t(mask);
+      atomic_add(&leaf_index[node], popcount8(mask));
+    });
+  }
+  exec.for_each("level split", n, [=] IRGRID_HD(std::size_t i) {
+    const std::uint32_t refs = child_base[i];
+    split[i] = r.splits_by_depth(level, r.depths[top[i]], refs) ? kSplitByDepth
+               : r.count_candidate(level, refs) && r.count_split_separates(refs, leaf_index[i])
+                   ? kSplitByCount
+                   : kNoSplit;
+    const bool splits = split[i] != kNoSplit;
+    child_base[i] = splits ? 8 : 0;
+    leaf_index[i] = splits ? 0 : 1;
+  });
+  const std::uint64_t children = wide_sum(exec, "level children", child_base, n);
+  if (children > kMaxEntryTarget)
+    throw Error(
+        ErrorCode::limit_exceeded,
+        "voxel map: " + std::to_string(children) +
+            " octree nodes exceed the limit of 2^30 - 1 entries (lower lambda2 or min_cells)");
+  plan.children = exec.exclusive_scan("level children", child_base, child_base, n);
+  plan.leaves = exec.exclusive_scan("level leaves", leaf_index, leaf_index, n);
+  return plan;
+}
+
+/// Writes this level's voxel-map entries and leaf cells into `out`.
+template <typename Exec>
+void emit_level_entries_and_cells(Exec& exec, const GridInfo& info, const LevelNodes<Exec>& nodes,
+                                  const LevelPlan<Exec>& plan, std::int32_t level,
+                                  OctreeLevels<Exec>& out) {
+  auto entries = exec.template allocate<Entry>(nodes.count);
+  auto cells = exec.template allocate<Cell>(plan.leaves);
+  Entry* d_entries = entries.data();
+  Cell* d_cells = cells.data();
+  const std::uint32_t *child_base = plan.child_base.data(), *leaf_index = plan.leaf_index.data();
+  const std::uint8_t* split = plan.split.data();
+  const Voxel* lo = nodes.lo.data();
+  const std::uint32_t next_level = out.num_entries + nodes.count, first_cell = out.num_cells;
+  const std::int32_t size = std::int32_t(1) << (info.shift - level);
+  exec.for_each("level entries", nodes.count, [=] IRGRID_HD(std::size_t i) {
+    if (split[i]) {
+      d_entries[i] = Entry::inner(1, next_level + child_base[i]);
+      return;
+    }
+    d_entries[i] = Entry::leaf(first_cell + leaf_index[i]);
+    const Voxel v = lo[i];
+    d_cells[leaf_index[i]] = {{v.x, v.y, v.z}, 0, {v.x + size, v.y + size, v.z + size}, 0};
+  });
+  out.num_entries += nodes.count;
+  out.num_cells += plan.leaves;
+  out.entries.push_back(std::move(entries));
+  out.cells.push_back(std::move(cells));
+}
+
+/// Moves the pairs of nodes that stay leaves to `out`, as (cell, triangle).
+template <typename Exec>
+void keep_leaf_pairs(Exec& exec, const RefPairs<Exec>& pairs, const LevelPlan<Exec>& plan,
+                     std::uint32_t first_cell, OctreeLevels<Exec>& out) {
+  const std::uint32_t *node = pairs.cell.data(), *tri = pairs.tri.data();
+  const std::uint8_t* split = plan.split.data();
+  std::uint32_t kept = 0;
+  const auto picked = select_indices(
+      exec, "keep leaf pairs", pairs.count,
+      [=] IRGRID_HD(std::uint32_t i) { return !split[node[i]]; }, kept);
+  RefPairs<Exec> leaf_pairs{exec.template allocate<std::uint32_t>(kept),
+                            exec.template allocate<std::uint32_t>(kept), kept};
+  std::uint32_t *cell_out = leaf_pairs.cell.data(), *tri_out = leaf_pairs.tri.data();
+  const std::uint32_t *leaf_index = plan.leaf_index.data(), *d_picked = picked.data();
+  exec.for_each("keep leaf pairs", kept, [=] IRGRID_HD(std::size_t k) {
+    const std::uint32_t i = d_picked[k];
+    cell_out[k] = first_cell + leaf_index[node[i]];
+    tri_out[k] = tri[i];
+  });
+  out.num_refs += kept;
+  out.pairs.push_back(std::move(leaf_pairs));
+}
+
+/// The children of the split nodes, and their (child, triangle) pairs; `built` holds the levels
+/// above, for the memory check (check_octree_memory).
+template <typename Exec>
+std::pair<LevelNodes<Exec>, RefPairs<Exec>> split_level(
+    Exec& exec, const GridInfo& info, const TriangleVertices* triangles,
+    const LevelNodes<Exec>& nodes, const RefPairs<Exec>& pairs, const LevelPlan<Exec>& plan,
+    const OctreeLevels<Exec>& built, std::int32_t level) {
+  const std::int32_t half = std::int32_t(1) << (info.shift - level - 1);
+  LevelNodes<Exec> children{exec.template allocate<Voxel>(plan.children),
+                            exec.template allocate<std::uint32_t>(plan.children), plan.children};
+  Voxel* child_lo = children.lo.data();
+  std::uint32_t* child_top = children.top.data();
+  const Voxel* lo = nodes.lo.data();
+  const std::uint32_t *top = nodes.top.data(), *child_base = plan.child_base.data();
+  const std::uint8_t* split = plan.split.data();
+  exec.for_each("child nodes", nodes.count, [=] IRGRID_HD(std::size_t i) {
+    if (!split[i]) return;
+    for (std::uint32_t bit = 0; bit < 8; ++bit) {
+      const Voxel v = lo[i];
+      child_lo[child_base[i] + bit] = {v.x + ((bit & 1) ? half : 0), v.y + ((bit & 2) ? half : 0),
+                                       v.z + ((bit & 4) ? half : 0)};
+      child_top[child_base[i] + bit] = top[i];
+    }
+  });
+  const std::uint32_t *node = pairs.cell.data(), *tri = pairs.tri.data();
+  std::uint32_t selected = 0;
+  const auto picked = select_indices(
+      exec, "split pairs", pairs.count,
+      [=] IRGRID_HD(std::uint32_t i) { return split[node[i]] != 0; }, selected);
+  auto masks = exec.template allocate<std::uint32_t>(selected + 1);
+  auto offsets = exec.template allocate<std::uint32_t>(selected + 1);
+  std::uint32_t *d_masks = masks.data(), *d_offsets = offsets.data();
+  const std::uint32_t* d_picked = picked.data();
+  const std::uint8_t* pair_masks = plan.pair_masks.data();  // count splits: computed in the plan
+  exec.for_each("split masks", selected, [=] IRGRID_HD(std::size_t k) {
+    const std::uint32_t i = d_picked[k];
+    d_masks[k] = split[node[i]] == kSplitByCount
+                     ? pair_masks[i]
+                     : child_overlap_mask(info, lo[node[i]], half, triangles[tri[i]]);
+    d_offsets[k] = popcount8(d_masks[k]);
+  });
+  const std::uint64_t child_refs = wide_sum(exec, "split offsets", d_offsets, selected);
+  check_reference_count(child_refs, "octree references");
+  check_octree_memory(exec.memory_budget(), std::uint64_t(built.num_entries) + plan.children,
+                      std::uint64_t(built.num_cells) + plan.children, built.num_refs + child_refs);
+  const std::uint32_t total = exec.exclusive_scan("split offsets", d_offsets, d_offsets, selected);
+  RefPairs<Exec> child_pairs{exec.template allocate<std::uint32_t>(total),
+                             exec.template allocate<std::uint32_t>(total), total};
+  std::uint32_t *cell_out = child_pairs.cell.data(), *tri_out = child_pairs.tri.data();
+  exec.for_each("split emit", selected, [=] IRGRID_HD(std::size_t k) {
+    const std::uint32_t i = d_picked[k];
+    std::uint32_t out = d_offsets[k];
+    for (std::uint32_t bit = 0; bit < 8; ++bit)
+      if (d_masks[k] >> bit & 1) cell_out[out] = child_base[node[i]] + bit, tri_out[out++] = tri[i];
+  });
+  return {std::move(children), std::move(child_pairs)};
+}
+
+/// Runs the octree subdivision from the top level down, at most to depth info.shift.
+template <typename Exec>
+OctreeLevels<Exec> build_octree_levels(Exec& exec, const GridInfo& info,
+                                       const TriangleVertices* triangles, RefPairs<Exec> pairs,
+                                       const OctreeRule& rule) {
+  OctreeLevels<Exec> out;
+  LevelNodes<Exec> nodes = top_level_nodes(exec, info);
+  for (std::int32_t level = 0;; ++level) {
+    const LevelPlan<Exec> plan = plan_level(exec, info, triangles, nodes, pairs, rule, level);
+    const std::uint32_t first_cell = out.num_cells;
+    emit_level_entries_and_cells(exec, info, nodes, plan, level, out);
+    keep_leaf_pairs(exec, pairs, plan, first_cell, out);
+    if (plan.children == 0) break;
+    auto next = split_level(exec, info, triangles, nodes, pairs, plan, out, level);
+    nodes = std::move(next.first);
+    pairs = std::move(next.second);
+    check_entry_count(std::uint64_t(out.num_entries) + nodes.count);
+  }
+  return out;
+}
+
+}  // namespace irgrid
