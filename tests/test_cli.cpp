@@ -264,6 +264,26 @@ TEST_F(Cli, BenchValidatesAndWritesJson) {
   }
 }
 
+TEST_F(Cli, BenchRebuildTimesEveryFrameOfEveryStructureAndValidatesTheLast) {
+  const auto [r, json] = run_json(
+      "bench builtin:sphere:2000 --rebuild 3 --compare irregular,uniform --width 32 --height 24 "
+      "--validate 300",
+      "rebuild.json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("median"), std::string::npos) << r.out;
+  ASSERT_TRUE(json.contains("rebuild")) << json.dump();
+  EXPECT_EQ(json["rebuild"]["frames"], 3);
+  ASSERT_EQ(json["rebuild"]["structures"].size(), 2u);
+  for (const auto& s : json["rebuild"]["structures"]) {
+    EXPECT_EQ(s["frame_ms"].size(), 3u) << s.dump();
+    EXPECT_GT(s["median_ms"].get<double>(), 0.0);
+    EXPECT_EQ(s["checked"], 300);
+    EXPECT_EQ(s["mismatches"], 0);
+  }
+  EXPECT_EQ(json["rebuild"]["structures"][0]["structure"], "irregular");
+  EXPECT_EQ(json["rebuild"]["structures"][1]["structure"], "uniform");
+}
+
 TEST_F(Cli, BenchBuildRepeatCountsTheTimedBuilds) {
   const auto [r, json] = run_json(
       "bench builtin:cornell --kinds primary --views 0 --width 8 --height 8 --repeat 2 "

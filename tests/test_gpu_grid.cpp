@@ -6,6 +6,10 @@
 #include <cstring>
 #include <filesystem>
 
+#if IRGRID_HAS_CUDA
+#include <cuda_runtime.h>
+#endif
+
 #include "core/construction/compress_cells.h"
 #include "core/construction/grid_statistics.h"
 #include "grid_test_support.h"
@@ -160,6 +164,71 @@ TEST(GpuGrid, SameHitsAsTheCpuOnSharedScenes) {
   if (paths.empty()) GTEST_SKIP() << "no shared scenes found";
   for (const auto& path : paths)
     expect_same_hits(load_scene(path), "irregular", path);
+}
+
+#if IRGRID_HAS_CUDA
+/// rays[i] traced by trace_device on device copies, on a stream of its own.
+std::vector<Hit> trace_on_device(const Accelerator& accelerator, const std::vector<Ray>& rays,
+                                 Query query) {
+  std::vector<Hit> hits(rays.size());
+  Ray* d_rays = nullptr;
+  Hit* d_hits = nullptr;
+  cudaStream_t stream = nullptr;
+  EXPECT_EQ(cudaMalloc(&d_rays, rays.size() * sizeof(Ray)), cudaSuccess);
+  EXPECT_EQ(cudaMalloc(&d_hits, rays.size() * sizeof(Hit)), cudaSuccess);
+  EXPECT_EQ(cudaStreamCreate(&stream), cudaSuccess);
+  cudaMemcpyAsync(d_rays, rays.data(), rays.size() * sizeof(Ray), cudaMemcpyHostToDevice, stream);
+  accelerator.trace_device(d_rays, d_hits, rays.size(), query, stream);
+  cudaMemcpyAsync(hits.data(), d_hits, rays.size() * sizeof(Hit), cudaMemcpyDeviceToHost, stream);
+  EXPECT_EQ(cudaStreamSynchronize(stream), cudaSuccess);
+  cudaStreamDestroy(stream);
+  cudaFree(d_rays);
+  cudaFree(d_hits);
+  return hits;
+}
+#endif
+
+TEST(GpuGrid, TraceDeviceOnAStreamEqualsTrace) {
+  IRGRID_SKIP_WITHOUT_GPU();
+#if IRGRID_HAS_CUDA
+  const Scene scene = load_scene("builtin:teapot-stadium:4000");
+  RayConfig config;
+  config.width = 96, config.height = 64;
+  const auto rays =
+      generate_rays(scene, scene_views(scene).front(), RayKind::primary, config, nullptr);
+  AcceleratorOptions options;
+  options.backend = Backend::cuda;
+  for (const Structure structure : {Structure::irregular, Structure::brute}) {
+    const auto gpu = make_accelerator(scene, structure, options);
+    for (Query query : {Query::closest, Query::any}) {
+      std::vector<Hit> expected(rays.size());
+      gpu->trace(rays, expected, query);
+      const auto hits = trace_on_device(*gpu, rays, query);
+      EXPECT_EQ(std::memcmp(hits.data(), expected.data(), hits.size() * sizeof(Hit)), 0)
+          << to_string(structure);
+    }
+  }
+#endif
+}
+
+TEST(GpuGrid, RebuildsReuseThePoolAndEqualFreshBuilds) {
+  IRGRID_SKIP_WITHOUT_GPU();
+  const Scene scene = load_scene("builtin:teapot-stadium:4000");
+  AcceleratorOptions options;
+  options.backend = Backend::cuda;
+  const auto grid = make_accelerator(scene, Structure::irregular, options);
+  grid->rebuild(scene.mesh());  // fills the pool
+  grid->rebuild(scene.mesh());
+  EXPECT_EQ(grid->build_stats().grid->fresh_allocations, 0u);
+  const auto cpu = make_accelerator(scene, Structure::irregular);
+  RayConfig config;
+  config.width = 96, config.height = 64;
+  const auto rays =
+      generate_rays(scene, scene_views(scene).front(), RayKind::primary, config, nullptr);
+  std::vector<Hit> a(rays.size()), b(rays.size());
+  grid->trace(rays, a, Query::closest);
+  cpu->trace(rays, b, Query::closest);
+  EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(Hit)), 0);
 }
 
 TEST(GpuGrid, CudaWithoutDeviceIsAClearError) {

@@ -356,7 +356,7 @@ TEST(OctreeSplit, NodesAboveTheThresholdSplitWhileItSeparatesTheirTriangles) {
 }
 
 // The separation bound: a count split may at most double a node's references (thin tubes of
-// long triangles need that much; docs/benchmarks.md, ninth session), computed without overflow.
+// long triangles need that much: octree_levels.h), computed without overflow.
 TEST(OctreeSplit, ASplitSeparatesWhileTheChildrenHoldAtMostTwiceTheReferences) {
   const OctreeRule rule{nullptr, false, 64, 10};
   EXPECT_TRUE(rule.count_split_separates(100, 100));

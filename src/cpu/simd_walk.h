@@ -30,7 +30,7 @@ enum class SimdIsa {
 /// Rays each thread keeps in flight: groups of lanes (4 of 16 with AVX-512, 8 of 8 with AVX2),
 /// advanced phase by phase together so that the memory accesses of one group overlap the work
 /// of the others. Four groups of 8 left AVX2's walk 2-25% slower on Crown, whose grid waits on
-/// memory most (docs/benchmarks.md, tenth session).
+/// memory most (measured on the Intel Xeon VM).
 inline constexpr int kSimdWalkRaysInFlight = 64;
 
 /// Whether this CPU (and its operating system) runs `isa`.

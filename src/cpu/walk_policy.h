@@ -2,15 +2,15 @@
 // or interleaved.
 //
 // Where the CPU has AVX2, every chunk walks in SIMD lanes (cpu/simd_walk.h), 16 of them where it
-// has AVX-512: on the 2-core development VM the 8-lane walk beat the other two ways on every ray
-// kind of Sponza and Conference (docs/benchmarks.md, third 2026-12-02 session), and 16 lanes ran
-// 1.2-1.8x as fast as 8 on Sponza, Conference and Crown (Sponza's ao and diffuse rays: 1.0-1.1x;
-// sixth 2026-12-02 session). Elsewhere the choice is between the other two.
+// has AVX-512: on the 2-core Intel Xeon VM the 8-lane walk beat the other two ways on every ray
+// kind of Sponza and Conference, and 16 lanes ran 1.2-1.8x as fast as 8 on Sponza, Conference
+// and Crown (Sponza's ao and diffuse rays: 1.0-1.1x). Elsewhere the choice is between the other
+// two.
 // Interleaving (cpu/interleaved_walk.h) overlaps the cache misses of different rays, at the
 // price of bookkeeping: about 14% more time with a single lane on Sponza's primary rays. It pays
 // where the rays miss the caches: incoherent rays, and any rays on a grid far larger than the
 // caches. Coherent rays on a smaller grid read the cells their neighbours just read, so they
-// walk one at a time. Measured on the same VM (docs/benchmarks.md, 2026-12-02): interleaving
+// walk one at a time. Measured on the same VM: interleaving
 // gave Sponza's random rays +18-30% and Crown's rays of every kind +8-35%, and cost Sponza's
 // primary rays 11-28%.
 #pragma once

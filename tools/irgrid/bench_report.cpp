@@ -105,26 +105,34 @@ nlohmann::json settings_json(const BenchSettings& s) {
 
 }  // namespace
 
+nlohmann::json machine_json() {
+  const auto machine = machine_info(environment_options().cpu_walk);
+  return {{"cpu", machine.cpu_model},
+          {"threads", machine.tbb_threads},
+          {"cpu_walk", machine.cpu_walk},
+          {"gpu", machine.gpu.empty() ? nlohmann::json() : nlohmann::json(machine.gpu)}};
+}
+
+void write_json_file(const nlohmann::json& json, const std::string& path) {
+  std::ofstream file(path);
+  if (!file) throw Error(ErrorCode::io, fmt::format("{}: cannot create", path));
+  file << json.dump(2) << '\n';
+  if (!file.flush()) throw Error(ErrorCode::io, fmt::format("{}: write failed", path));
+}
+
 void write_bench_json(const std::vector<BenchResult>& results, const std::string& scene_file,
                       const BenchSettings& settings, const std::string& path) {
-  const auto machine = machine_info(environment_options().cpu_walk);
   nlohmann::json out = result_json(results.front());
   out["scene_file"] = scene_file;
   out["settings"] = settings_json(settings);
   out["irgrid_version"] = version();
-  out["machine"] = {{"cpu", machine.cpu_model},
-                    {"threads", machine.tbb_threads},
-                    {"cpu_walk", machine.cpu_walk},
-                    {"gpu", machine.gpu.empty() ? nlohmann::json() : nlohmann::json(machine.gpu)}};
+  out["machine"] = machine_json();
   if (results.size() > 1) {
     out["compare"] = nlohmann::json::array();
     for (const auto& r : results)
       out["compare"].push_back(result_json(r));
   }
-  std::ofstream file(path);
-  if (!file) throw Error(ErrorCode::io, fmt::format("{}: cannot create", path));
-  file << out.dump(2) << '\n';
-  if (!file.flush()) throw Error(ErrorCode::io, fmt::format("{}: write failed", path));
+  write_json_file(out, path);
 }
 
 }  // namespace irgrid::cli

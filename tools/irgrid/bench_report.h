@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "irgrid/accelerator.h"
 #include "irgrid/io/rays.h"
 
@@ -41,6 +43,12 @@ struct BenchSettings {
   int build_repeat = -1;  ///< timed builds; below 0: as many as `repeat`
   std::uint64_t validate = 10000;
 };
+
+/// The machine as bench's JSON names it (CPU, threads, CPU walk, GPU).
+nlohmann::json machine_json();
+
+/// Writes `json` to `path`; throws Error{io} naming the path when that fails.
+void write_json_file(const nlohmann::json& json, const std::string& path);
 
 /// A table for people on stdout.
 void print_bench_table(const BenchResult& result);

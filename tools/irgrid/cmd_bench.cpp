@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "bench_rebuild.h"
 #include "bench_report.h"
 #include "commands.h"
 #include "common.h"
@@ -25,6 +26,7 @@ struct BenchOptions : BenchSettings {
   std::string scene, format = "irgrid", json, compare;
   StructureOptions structure;
   bool any_hit = false;
+  int rebuild = 0;  ///< frames of `--rebuild`; 0: the ray benchmark
 };
 
 double median(std::vector<double> values) {
@@ -209,12 +211,46 @@ void run_standard_kinds(const Scene& scene, const ReferenceTracer* reference, co
     }
 }
 
+/// `--rebuild N`: the structures of --compare (default: the irregular grid and Embree) rebuilt
+/// over N animation frames, validated on view 0's primary rays of the last frame.
+int run_rebuild_bench(BenchOptions o) {
+  if (o.compare.empty()) {
+    o.compare = to_string(kDefaultStructure);
+    const auto structures = available_structures();
+    if (std::find(structures.begin(), structures.end(), Structure::embree) != structures.end())
+      o.compare += std::string(",") + to_string(Structure::embree);
+  }
+  const Scene scene = load_scene_reporting(o.scene);
+  const Camera camera = pick_view(scene, 0, o.views_file);
+  std::vector<std::pair<Structure, AcceleratorOptions>> contenders;
+  for (const auto& c : parse_contenders(o))
+    contenders.emplace_back(c.structure, c.options);
+  const auto results = bench_rebuilds(scene, contenders, o.rebuild, camera, o.config.width,
+                                      o.config.height, o.validate);
+  print_rebuild_table(scene, results);
+  if (!o.json.empty())
+    write_json_file({{"scene", scene.name},
+                     {"scene_file", o.scene},
+                     {"triangles", scene.triangle_count()},
+                     {"irgrid_version", version()},
+                     {"machine", machine_json()},
+                     {"rebuild", rebuild_json(results, o.rebuild)}},
+                    o.json);
+  std::uint64_t mismatches = 0;
+  for (const auto& r : results)
+    mismatches += r.mismatches;
+  if (mismatches == 0) return 0;
+  fmt::print(stderr, "irgrid: validation failed: {} mismatching rays\n", mismatches);
+  return 1;
+}
+
 int run_bench(BenchOptions o) {
   if (o.repeat < 1) throw Error(ErrorCode::invalid_argument, "--repeat must be at least 1");
   if (o.build_repeat < 0) o.build_repeat = o.repeat;
   if (o.config.count == 0)
     o.config.count = std::uint64_t(o.config.width) * std::uint64_t(o.config.height);
   if (!o.json.empty()) check_writable(o.json);
+  if (o.rebuild > 0) return run_rebuild_bench(o);
   // A ray file is read, and the standard rays planned, before the builds, so that bad input
   // fails at once.
   std::vector<Ray> file_rays;
@@ -291,6 +327,11 @@ void add_bench_command(CLI::App& app) {
   cmd->add_option("--validate", o->validate,
                   "Rays per run checked against the double reference (0: off)")
       ->capture_default_str();
+  cmd->add_option("--rebuild", o->rebuild,
+                  "Instead of tracing: rebuild each structure (default: irregular and embree) "
+                  "over this many frames of a twisting, rippling animation of the scene and "
+                  "print each frame's rebuild time")
+      ->check(CLI::Range(1, 100000));
   cmd->add_option("--json", o->json, "Write results as JSON to this file");
   cmd->callback([o] {
     const int code = run_bench(*o);

@@ -165,7 +165,7 @@ struct OctreeRule {
   /// splitting further only multiplies the references (a fan around a vertex, or long triangles
   /// along a thin cylinder, land in every child on their path, level after level: Conference's
   /// references grew from 0.78 to 1.46 million with a surface-area test alone, for 1.5% fewer
-  /// triangle tests per ray). The bound trades the two (docs/benchmarks.md, ninth session):
+  /// triangle tests per ray). The bound trades the two (measured on the Intel Xeon VM):
   /// at 1.5 times, the teapot in the stadium's spout kept lists of hundreds of long triangles
   /// (88 tests per view-0 primary ray); at 2 times it takes 45, for 25% more references on
   /// Conference (+8% memory) and 2% more on Crown; with no bound, 39 tests and 75% more
