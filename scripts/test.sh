@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Sets up, builds and runs every test (GPU tests skip cleanly without a GPU).
+# Sets up, builds and runs every test: the C++ suite (ctest; GPU tests skip cleanly without a
+# GPU), then the Python package, installed with pip into build/venv, and its pytest suite.
 # Tests reading ../shared/scenes skip when that folder is absent.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -7,3 +8,4 @@ bash scripts/install-deps.sh
 bash scripts/build.sh -DIRGRID_BUILD_TESTS=ON
 build_dir=${IRGRID_BUILD_DIR:-build}
 ctest --test-dir "$build_dir" --output-on-failure --parallel "$(nproc)" --timeout 900
+bash scripts/python-test.sh

@@ -6,6 +6,7 @@
 #include <thread>
 #include <vector>
 
+#include "irgrid/io/random.h"
 #include "irgrid/io/rays.h"
 #include "irgrid/io/scene.h"
 #include "irgrid/irgrid.h"
@@ -194,6 +195,31 @@ TEST(Api, TheHeaderOnlyTraversalMatchesTrace) {
   EXPECT_FALSE(closest_hit(make_accelerator(TriangleMesh{}, Structure::irregular)->grid_view(),
                            Ray{{0, 0, 0}, 0, {1, 0, 0}, 1})
                    .hit());
+}
+
+TEST(Api, CountedCrossingsTellInsideFromOutsideOfAClosedMesh) {
+  const Scene sphere = load_scene("builtin:sphere:5000");  // the closed unit sphere
+  Pcg32 rng(11);
+  std::vector<Ray> rays(20000);
+  std::vector<bool> inside(rays.size());
+  for (std::size_t i = 0; i < rays.size(); ++i) {
+    Ray& r = rays[i];
+    for (int a = 0; a < 3; ++a)
+      r.org[a] = 2.4f * rng.next_float() - 1.2f, r.dir[a] = rng.next_float() - 0.5f;
+    r.tmin = 0, r.tmax = INFINITY;
+    const float d2 = r.org[0] * r.org[0] + r.org[1] * r.org[1] + r.org[2] * r.org[2];
+    inside[i] = d2 < 0.98f;                      // the mesh lies between radius 0.99 and 1
+    if (d2 > 0.98f && d2 < 1.02f) r.org[0] = 5;  // no origins near the surface
+  }
+  for (const Structure structure : available_structures()) {
+    const auto accelerator = make_accelerator(sphere, structure);
+    std::vector<std::uint32_t> counts(rays.size());
+    count_crossings(*accelerator, rays, counts);
+    std::size_t wrong = 0;
+    for (std::size_t i = 0; i < rays.size(); ++i)
+      wrong += (counts[i] % 2 == 1) != inside[i] || counts[i] > 2;
+    EXPECT_EQ(wrong, 0u) << to_string(structure);
+  }
 }
 
 TEST(Api, DeviceCallsOnTheCpuBackendAreClearErrors) {

@@ -191,6 +191,16 @@ class Accelerator {
   virtual const BuildStats& build_stats() const = 0;
 };
 
+/// Counts, for every ray, the distinct distances t in [tmin, tmax] at which it meets a triangle
+/// of `accelerator`'s mesh, into counts[i]: for a ray from outside a closed mesh, even means
+/// outside. Watertight: a ray through a shared edge or vertex counts one crossing there, not
+/// zero or two: hits closer than 2^-20 of their distance to the last one counted (and hits on
+/// the last triangle again) count once. Traces closest hits repeatedly, each pass starting just
+/// past the last hit, so it costs about one trace per crossing.
+/// rays.size() must equal counts.size().
+void count_crossings(const Accelerator& accelerator, std::span<const Ray> rays,
+                     std::span<std::uint32_t> counts);
+
 /// Builds `structure` over `mesh` on options.backend (the mesh is copied: see TriangleMesh).
 /// Throws Error{invalid_argument} for a structure not compiled in, a bad mesh (check_mesh) or
 /// bad options, Error{no_device} when the CUDA backend is asked for without a usable GPU,

@@ -1,0 +1,244 @@
+// irgrid._irgrid: the C++ side of the Python package. The Python layer (irgrid/__init__.py)
+// checks shapes and dtypes and hands over C-contiguous float32 / uint32 arrays.
+#include <nanobind/nanobind.h>
+#include <nanobind/ndarray.h>
+#include <nanobind/stl/pair.h>
+#include <nanobind/stl/string.h>
+#include <nanobind/stl/vector.h>
+
+#include <cstring>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "arrays.h"
+#include "irgrid/io/scene.h"
+#include "irgrid/irgrid.h"
+
+namespace nb = nanobind;
+
+namespace irgrid::python {
+namespace {
+
+using FloatRows = nb::ndarray<const float, nb::ndim<2>, nb::c_contig, nb::device::cpu>;
+using IndexRows = nb::ndarray<const std::uint32_t, nb::ndim<2>, nb::c_contig, nb::device::cpu>;
+using Floats = nb::ndarray<const float, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+
+/// A numpy array of `shape` that owns new memory.
+template <typename T>
+nb::ndarray<nb::numpy, T> new_array(std::initializer_list<std::size_t> shape) {
+  std::size_t count = 1;
+  for (std::size_t extent : shape)
+    count *= extent;
+  T* data = new T[count > 0 ? count : 1];
+  nb::capsule owner(data, [](void* p) noexcept { delete[] static_cast<T*>(p); });
+  return nb::ndarray<nb::numpy, T>(data, shape.size(), std::data(shape), owner);
+}
+
+void require_columns(const FloatRows& rows, std::size_t columns, const char* what) {
+  if (rows.shape(1) != columns)
+    throw Error(ErrorCode::invalid_argument,
+                std::string(what) + ": expected " + std::to_string(columns) + " columns");
+}
+
+/// The rays of `rows` (origin, direction) over [tmin[i], tmax[i]].
+std::vector<Ray> rays_of(const FloatRows& rows, const Floats& tmin, const Floats& tmax) {
+  require_columns(rows, 6, "rays");
+  if (tmin.shape(0) != rows.shape(0) || tmax.shape(0) != rows.shape(0))
+    throw Error(ErrorCode::invalid_argument, "rays: one tmin and one tmax per ray expected");
+  return rays_from_rows(rows.data(), rows.shape(0), tmin.data(), tmax.data());
+}
+
+/// One built structure over a mesh, with the mesh's arrays kept for normals and rebuilds.
+class PyAccelerator {
+ public:
+  PyAccelerator(const FloatRows& vertices, const IndexRows& triangles, const std::string& structure,
+                const std::string& backend, const BuildConfig& config) {
+    require_columns(vertices, 3, "vertices");
+    if (triangles.shape(1) != 3)
+      throw Error(ErrorCode::invalid_argument, "triangles: expected 3 columns");
+    vertices_.assign(vertices.data(), vertices.data() + vertices.size());
+    triangles_.assign(triangles.data(), triangles.data() + triangles.size());
+    AcceleratorOptions options;
+    options.backend = parse_backend(backend);
+    options.grid = config;
+    const Structure chosen = parse_structure(structure);
+    nb::gil_scoped_release release;
+    accelerator_ = make_accelerator(mesh(), chosen, options);
+  }
+
+  std::string structure() const { return to_string(accelerator_->structure()); }
+  std::string backend() const { return to_string(accelerator_->backend()); }
+  std::uint64_t memory_bytes() const { return accelerator_->build_stats().memory_bytes; }
+
+  nb::tuple cast_rays(const FloatRows& rows, const Floats& tmin, const Floats& tmax) const {
+    const std::size_t n = rows.shape(0);
+    auto t = new_array<float>({n});
+    auto prim = new_array<std::uint32_t>({n});
+    auto uv = new_array<float>({n, 2});
+    auto normals = new_array<float>({n, 3});
+    {
+      nb::gil_scoped_release release;
+      const auto rays = rays_of(rows, tmin, tmax);
+      std::vector<Hit> hits(n);
+      accelerator_->trace(rays, hits, Query::closest);
+      split_hits(hits, vertices_.data(), triangles_.data(), t.data(), prim.data(), uv.data(),
+                 normals.data());
+    }
+    return nb::make_tuple(t, prim, uv, normals);
+  }
+
+  nb::ndarray<nb::numpy, bool> test_occlusions(const FloatRows& rows, const Floats& tmin,
+                                               const Floats& tmax) const {
+    const std::size_t n = rows.shape(0);
+    auto occluded = new_array<bool>({n});
+    {
+      nb::gil_scoped_release release;
+      const auto rays = rays_of(rows, tmin, tmax);
+      std::vector<Hit> hits(n);
+      accelerator_->trace(rays, hits, Query::any);
+      for (std::size_t i = 0; i < n; ++i)
+        occluded.data()[i] = hits[i].hit();
+    }
+    return occluded;
+  }
+
+  nb::ndarray<nb::numpy, std::int32_t> count_intersections(const FloatRows& rows,
+                                                           const Floats& tmin,
+                                                           const Floats& tmax) const {
+    const std::size_t n = rows.shape(0);
+    auto out = new_array<std::int32_t>({n});
+    {
+      nb::gil_scoped_release release;
+      const auto rays = rays_of(rows, tmin, tmax);
+      std::vector<std::uint32_t> counts(n);
+      count_crossings(*accelerator_, rays, counts);
+      std::memcpy(out.data(), counts.data(), n * sizeof(std::int32_t));
+    }
+    return out;
+  }
+
+  void rebuild(const FloatRows& vertices) {
+    require_columns(vertices, 3, "vertices");
+    if (vertices.size() != vertices_.size())
+      throw Error(ErrorCode::invalid_argument,
+                  "rebuild: " + std::to_string(vertices.shape(0)) + " vertices, the scene has " +
+                      std::to_string(vertices_.size() / 3) + " (rebuild takes new positions)");
+    std::vector<float> previous(vertices.data(), vertices.data() + vertices.size());
+    previous.swap(vertices_);
+    nb::gil_scoped_release release;
+    try {
+      accelerator_->rebuild(mesh());
+    } catch (...) {
+      vertices_.swap(previous);
+      throw;
+    }
+  }
+
+  nb::dict stats() const {
+    const BuildStats& s = accelerator_->build_stats();
+    nb::dict out, phases;
+    out["structure"] = structure();
+    out["backend"] = backend();
+    out["triangles"] = triangles_.size() / 3;
+    out["build_ms"] = s.build_ms;
+    out["memory_bytes"] = s.memory_bytes;
+    for (std::size_t p = 0; p < kBuildPhaseCount; ++p)
+      if (s.phase_ms[p]) phases[to_string(BuildPhase(p))] = *s.phase_ms[p];
+    out["build_phases_ms"] = phases;
+    if (s.grid) {
+      const GridStats& g = *s.grid;
+      out["cells"] = g.cells;
+      out["references"] = g.references;
+      out["voxel_map_entries"] = g.voxel_map_entries;
+      out["top_level_references"] = g.top_level_references;
+      out["top_dims"] = nb::make_tuple(g.top_dims[0], g.top_dims[1], g.top_dims[2]);
+      out["depth"] = g.depth;
+      out["compressed_cells"] = g.compressed_cells;
+      out["lambda2_used"] = g.lambda2_used;
+      out["peak_build_bytes"] = g.peak_build_bytes;
+    }
+    return out;
+  }
+
+ private:
+  TriangleMesh mesh() const {
+    return {vertices_.data(), vertices_.size() / 3, 3 * sizeof(float), triangles_.data(),
+            triangles_.size() / 3};
+  }
+
+  std::vector<float> vertices_;
+  std::vector<std::uint32_t> triangles_;
+  std::unique_ptr<Accelerator> accelerator_;
+};
+
+/// OBJ or PLY (also .gz / .xz) as (vertices float32 (V, 3), triangles uint32 (T, 3)); invalid
+/// triangles are dropped as the command-line tool drops them.
+nb::tuple load(const std::string& path) {
+  Scene scene;
+  {
+    nb::gil_scoped_release release;
+    scene = load_scene(path);
+  }
+  auto vertices = new_array<float>({scene.vertices.size(), 3});
+  auto triangles = new_array<std::uint32_t>({scene.triangles.size(), 3});
+  std::memcpy(vertices.data(), scene.vertices.data(), scene.vertices.size() * 3 * sizeof(float));
+  std::memcpy(triangles.data(), scene.triangles.data(),
+              scene.triangles.size() * 3 * sizeof(std::uint32_t));
+  return nb::make_tuple(vertices, triangles);
+}
+
+std::vector<std::string> backends() {
+  std::vector<std::string> out = {"cpu"};
+  if (!cuda_status().gpus.empty()) out.push_back("cuda");
+  return out;
+}
+
+}  // namespace
+}  // namespace irgrid::python
+
+NB_MODULE(_irgrid, m) {
+  using namespace irgrid;
+  using python::PyAccelerator;
+  m.doc() = "irgrid: irregular grids for ray tracing (C++ core)";
+  nb::exception<Error>(m, "Error", PyExc_RuntimeError);
+  m.def("version", [] { return std::string(version()); });
+  m.def("backends", &python::backends, "Backends that can run here: 'cpu', and 'cuda' with a GPU");
+  m.def("cuda_status", [] { return cuda_status().status; });
+  m.def("structures", [] {
+    std::vector<std::string> names;
+    for (const Structure s : available_structures())
+      names.push_back(to_string(s));
+    return names;
+  });
+  m.def("load", &python::load, nb::arg("path"));
+  nb::class_<BuildConfig>(m, "BuildConfig")
+      .def(nb::init<>())
+      .def_rw("lambda1", &BuildConfig::lambda1)
+      .def_rw("lambda2", &BuildConfig::lambda2)
+      .def_rw("min_cells", &BuildConfig::min_cells)
+      .def_rw("split_refs", &BuildConfig::split_refs)
+      .def_rw("alpha", &BuildConfig::alpha)
+      .def_rw("cost_ratio", &BuildConfig::cost_ratio)
+      .def_rw("empty_aspect", &BuildConfig::empty_aspect)
+      .def_rw("expansion_passes", &BuildConfig::expansion_passes)
+      .def_rw("partial_expansion", &BuildConfig::partial_expansion)
+      .def_rw("skip_empty", &BuildConfig::skip_empty)
+      .def_rw("compress", &BuildConfig::compress);
+  nb::class_<PyAccelerator>(m, "Accelerator")
+      .def(nb::init<const python::FloatRows&, const python::IndexRows&, const std::string&,
+                    const std::string&, const BuildConfig&>(),
+           nb::arg("vertices"), nb::arg("triangles"), nb::arg("structure"), nb::arg("backend"),
+           nb::arg("config"))
+      .def_prop_ro("structure", &PyAccelerator::structure)
+      .def_prop_ro("backend", &PyAccelerator::backend)
+      .def_prop_ro("memory_bytes", &PyAccelerator::memory_bytes)
+      .def_prop_ro("stats", &PyAccelerator::stats)
+      .def("cast_rays", &PyAccelerator::cast_rays, nb::arg("rays"), nb::arg("tmin"),
+           nb::arg("tmax"))
+      .def("test_occlusions", &PyAccelerator::test_occlusions, nb::arg("rays"), nb::arg("tmin"),
+           nb::arg("tmax"))
+      .def("count_intersections", &PyAccelerator::count_intersections, nb::arg("rays"),
+           nb::arg("tmin"), nb::arg("tmax"))
+      .def("rebuild", &PyAccelerator::rebuild, nb::arg("vertices"));
+}
