@@ -14,10 +14,14 @@ namespace irgrid::python {
 std::vector<Ray> rays_from_rows(const float* rows, std::size_t n, const float* tmin,
                                 const float* tmax);
 
+/// The unit geometric normal (v1 - v0) x (v2 - v0) of each triangle, zero for a degenerate one,
+/// into `normals` (3 floats per triangle), from float32 xyz vertices and uint32 triangles.
+void triangle_normals(const float* vertices, const std::uint32_t* triangles,
+                      std::size_t triangle_count, float* normals);
+
 /// The hits as Python returns them: t (inf on a miss), primitive id (kNoHit on a miss), u, v
-/// and the unit geometric normal of the triangle hit (zero on a miss), from the mesh's
-/// float32 xyz vertices and uint32 triangles.
-void split_hits(std::span<const Hit> hits, const float* vertices, const std::uint32_t* triangles,
-                float* t, std::uint32_t* prim, float* uv, float* normals);
+/// and the normal of the triangle hit from `triangle_normals` (zero on a miss).
+void split_hits(std::span<const Hit> hits, const float* triangle_normals, float* t,
+                std::uint32_t* prim, float* uv, float* normals);
 
 }  // namespace irgrid::python

@@ -59,12 +59,14 @@ class PyAccelerator {
       throw Error(ErrorCode::invalid_argument, "triangles: expected 3 columns");
     vertices_.assign(vertices.data(), vertices.data() + vertices.size());
     triangles_.assign(triangles.data(), triangles.data() + triangles.size());
+    normals_.resize(triangles_.size());
     AcceleratorOptions options;
     options.backend = parse_backend(backend);
     options.grid = config;
     const Structure chosen = parse_structure(structure);
     nb::gil_scoped_release release;
     accelerator_ = make_accelerator(mesh(), chosen, options);
+    update_normals();
   }
 
   std::string structure() const { return to_string(accelerator_->structure()); }
@@ -82,8 +84,7 @@ class PyAccelerator {
       const auto rays = rays_of(rows, tmin, tmax);
       std::vector<Hit> hits(n);
       accelerator_->trace(rays, hits, Query::closest);
-      split_hits(hits, vertices_.data(), triangles_.data(), t.data(), prim.data(), uv.data(),
-                 normals.data());
+      split_hits(hits, normals_.data(), t.data(), prim.data(), uv.data(), normals.data());
     }
     return nb::make_tuple(t, prim, uv, normals);
   }
@@ -133,6 +134,7 @@ class PyAccelerator {
       vertices_.swap(previous);
       throw;
     }
+    update_normals();
   }
 
   nb::dict stats() const {
@@ -167,8 +169,14 @@ class PyAccelerator {
             triangles_.size() / 3};
   }
 
+  /// The geometric normal of every triangle, for the hits' normals.
+  void update_normals() {
+    triangle_normals(vertices_.data(), triangles_.data(), triangles_.size() / 3, normals_.data());
+  }
+
   std::vector<float> vertices_;
   std::vector<std::uint32_t> triangles_;
+  std::vector<float> normals_;  ///< 3 per triangle
   std::unique_ptr<Accelerator> accelerator_;
 };
 
