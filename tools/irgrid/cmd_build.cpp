@@ -49,25 +49,10 @@ void print_statistics(const Scene& scene, const Accelerator& accelerator, const 
     if (accelerator.structure() == Structure::irregular && g.lambda2_used != grid.lambda2)
       fmt::print("  lambda2 used {:>26.4g} (raised from {:.4g} to aim at --min-cells {})\n",
                  g.lambda2_used, grid.lambda2, grid.min_cells);
-    const std::pair<const char*, std::uint64_t> counts[] = {
-        {"top_level_references", g.top_level_references},
-        {"cells", g.cells},
-        {"references", g.references},
-        {"entries", g.voxel_map_entries},
-        {"top_x", g.top_dims[0]},
-        {"top_y", g.top_dims[1]},
-        {"top_z", g.top_dims[2]},
-        {"depth", g.depth},
-        {"compressed_cells", g.compressed_cells}};
-    for (const auto& [name, count] : counts)
+    for (const auto& [name, count] : grid_counts(g))
       fmt::print("  {:<28} {:>10}\n", name, count);
-    const std::pair<const char*, std::uint64_t> bytes[] = {{"cells", g.cells_bytes},
-                                                           {"references", g.references_bytes},
-                                                           {"voxel_map", g.voxel_map_bytes},
-                                                           {"triangles", g.triangles_bytes},
-                                                           {"empty_radii", g.empty_radii_bytes}};
-    for (const auto& [name, size] : bytes)
-      if (size > 0) fmt::print("  bytes {:<22} {:>10.2f} MiB\n", name, double(size) / 1048576.0);
+    for (const auto& [name, size] : grid_array_bytes(g))
+      fmt::print("  bytes {:<22} {:>10.2f} MiB\n", name, double(size) / 1048576.0);
   }
   const double per_triangle =
       scene.triangle_count() ? double(stats.memory_bytes) / double(scene.triangle_count()) : 0;

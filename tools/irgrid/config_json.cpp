@@ -5,6 +5,27 @@
 
 namespace irgrid::cli {
 
+std::vector<std::pair<const char*, std::uint64_t>> grid_counts(const GridStats& g) {
+  return {{"top_level_references", g.top_level_references},
+          {"cells", g.cells},
+          {"references", g.references},
+          {"entries", g.voxel_map_entries},
+          {"top_x", g.top_dims[0]},
+          {"top_y", g.top_dims[1]},
+          {"top_z", g.top_dims[2]},
+          {"depth", g.depth},
+          {"compressed_cells", g.compressed_cells ? 1 : 0}};
+}
+
+std::vector<std::pair<const char*, std::uint64_t>> grid_array_bytes(const GridStats& g) {
+  std::vector<std::pair<const char*, std::uint64_t>> out = {{"cells", g.cells_bytes},
+                                                            {"references", g.references_bytes},
+                                                            {"voxel_map", g.voxel_map_bytes},
+                                                            {"triangles", g.triangles_bytes}};
+  if (g.empty_radii_bytes > 0) out.emplace_back("empty_radii", g.empty_radii_bytes);
+  return out;
+}
+
 void add_build_stats_json(nlohmann::json& out, Structure structure, const BuildStats& stats,
                           const std::optional<BuildConfig>& grid) {
   out["build_ms"] = stats.build_ms;
@@ -17,21 +38,11 @@ void add_build_stats_json(nlohmann::json& out, Structure structure, const BuildS
   out["counts"] = nlohmann::json::object();
   if (stats.grid) {
     const GridStats& g = *stats.grid;
-    out["memory_breakdown_bytes"] = {{"cells", g.cells_bytes},
-                                     {"references", g.references_bytes},
-                                     {"voxel_map", g.voxel_map_bytes},
-                                     {"triangles", g.triangles_bytes}};
-    if (g.empty_radii_bytes > 0) out["memory_breakdown_bytes"]["empty_radii"] = g.empty_radii_bytes;
-    out["counts"] = {{"top_level_references", g.top_level_references},
-                     {"cells", g.cells},
-                     {"references", g.references},
-                     {"entries", g.voxel_map_entries},
-                     {"top_x", g.top_dims[0]},
-                     {"top_y", g.top_dims[1]},
-                     {"top_z", g.top_dims[2]},
-                     {"depth", g.depth},
-                     {"compressed_cells", g.compressed_cells ? 1 : 0},
-                     {"peak_build_bytes", g.peak_build_bytes}};
+    for (const auto& [name, bytes] : grid_array_bytes(g))
+      out["memory_breakdown_bytes"][name] = bytes;
+    for (const auto& [name, count] : grid_counts(g))
+      out["counts"][name] = count;
+    out["counts"]["peak_build_bytes"] = g.peak_build_bytes;
   }
   if (!grid) return;
   out["config"] = {{"lambda1", grid->lambda1},
