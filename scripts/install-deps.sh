@@ -6,7 +6,7 @@ set -euo pipefail
 
 packages=(build-essential cmake ninja-build pkg-config xz-utils
           libtbb-dev libfmt-dev nlohmann-json3-dev libcli11-dev libtinyobjloader-dev libstb-dev
-          zlib1g-dev liblzma-dev libgtest-dev libembree-dev)
+          zlib1g-dev liblzma-dev libgtest-dev libembree-dev libgmp-dev)
 
 missing=()
 for package in "${packages[@]}"; do
