@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Sets up, builds and runs every test (GPU tests skip cleanly without a GPU).
-# Tests reading ../shared/scenes skip when that folder is absent.
+# Tests reading ../shared/scenes skip when that folder is absent, and fail instead with
+# IRGRID_REQUIRE_SHARED_SCENES=1 (as .ci/run sets).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh

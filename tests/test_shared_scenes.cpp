@@ -14,6 +14,7 @@
 #include "irgrid/io/rays.h"
 #include "irgrid/io/scene.h"
 #include "irgrid/io/validate.h"
+#include "test_requirements.h"
 
 namespace irgrid {
 namespace {
@@ -41,7 +42,9 @@ class SharedScenesTest : public ::testing::TestWithParam<SharedScene> {};
 TEST_P(SharedScenesTest, CountsMatchReadme) {
   const SharedScene& expected = GetParam();
   const std::filesystem::path path = std::filesystem::path(IRGRID_SHARED_SCENES) / expected.file;
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << "shared scene not present: " << path;
+  if (!std::filesystem::exists(path))
+    IRGRID_SKIP_UNLESS_REQUIRED("IRGRID_REQUIRE_SHARED_SCENES",
+                                "shared scene not present: " << path);
 
   const auto start = std::chrono::steady_clock::now();
   const Scene scene = load_scene(path.string());
@@ -71,7 +74,9 @@ TEST_P(SharedScenesTest, CountsMatchReadme) {
 
 TEST_P(SharedScenesTest, IrregularGridEqualsTheDoubleReferenceOnEveryViewAndRayKind) {
   const std::filesystem::path path = std::filesystem::path(IRGRID_SHARED_SCENES) / GetParam().file;
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << "shared scene not present: " << path;
+  if (!std::filesystem::exists(path))
+    IRGRID_SKIP_UNLESS_REQUIRED("IRGRID_REQUIRE_SHARED_SCENES",
+                                "shared scene not present: " << path);
   const Scene scene = load_scene(path.string());
   const auto grid = make_accelerator(scene, Structure::irregular);
   const ReferenceTracer reference(scene);
