@@ -397,8 +397,8 @@ TEST_F(Cli, BenchExactValidatesAgainstTheOracleAndCountsEachFault) {
   for (const auto& run : json["runs"]) {
     EXPECT_EQ(run["checked"], 200) << run["kind"];
     EXPECT_EQ(run["mismatches"], 0) << run["kind"];
-    for (const char* key :
-         {"wrong_triangle", "wrong_t", "wrong_uv", "outside_window", "fragile", "unlocated"})
+    for (const char* key : {"wrong_triangle", "wrong_t", "wrong_uv", "outside_window", "fragile",
+                            "unbounded", "unlocated"})
       EXPECT_TRUE(run["validation"].contains(key)) << key;
     EXPECT_EQ(run["validation"]["unlocated"], 0) << "the irregular grid says where it is occluded";
   }

@@ -45,13 +45,13 @@ void print_bench_table(const BenchResult& r) {
 void print_validation_table(const BenchResult& r) {
   if (std::none_of(r.runs.begin(), r.runs.end(), [](const BenchRun& run) { return run.checked; }))
     return;
-  fmt::print("validation:\n{:>4}  {:<8} {:>9} {:>10} {:>8} {:>9} {:>8} {:>9} {:>10}\n", "view",
-             "kind", "checked", "wrong-tri", "wrong-t", "wrong-uv", "outside", "fragile",
-             "unlocated");
+  fmt::print("validation:\n{:>4}  {:<8} {:>9} {:>10} {:>8} {:>9} {:>8} {:>9} {:>10} {:>10}\n",
+             "view", "kind", "checked", "wrong-tri", "wrong-t", "wrong-uv", "outside", "fragile",
+             "unbounded", "unlocated");
   for (const auto& run : r.runs)
-    fmt::print("{:>4}  {:<8} {:>9} {:>10} {:>8} {:>9} {:>8} {:>9} {:>10}\n", run.view, run.kind,
-               run.checked, run.wrong_triangle, run.wrong_t, run.wrong_uv, run.outside_window,
-               run.fragile, run.unlocated);
+    fmt::print("{:>4}  {:<8} {:>9} {:>10} {:>8} {:>9} {:>8} {:>9} {:>10} {:>10}\n", run.view,
+               run.kind, run.checked, run.wrong_triangle, run.wrong_t, run.wrong_uv,
+               run.outside_window, run.fragile, run.unbounded, run.unlocated);
 }
 
 void print_comparison(const std::vector<BenchResult>& results) {
@@ -93,6 +93,7 @@ nlohmann::json result_json(const BenchResult& r) {
                              {"wrong_uv", run.wrong_uv},
                              {"outside_window", run.outside_window},
                              {"fragile", run.fragile},
+                             {"unbounded", run.unbounded},
                              {"unlocated", run.unlocated}};
     if (run.cells_per_ray >= 0) {
       entry["cells_per_ray"] = run.cells_per_ray;

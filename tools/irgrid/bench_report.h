@@ -20,7 +20,7 @@ struct BenchRun {
   std::uint64_t checked = 0, mismatches = 0;
   /// The kinds of mismatch, and the accepted cases, of irgrid::Validation.
   std::uint64_t wrong_triangle = 0, wrong_t = 0, wrong_uv = 0, outside_window = 0, fragile = 0,
-                unlocated = 0;
+                unbounded = 0, unlocated = 0;
   /// Mean cells visited and triangles tested per ray (one counted pass, untimed); negative for
   /// structures that do not count their work.
   double cells_per_ray = -1, tests_per_ray = -1;

@@ -137,6 +137,7 @@ BenchRun measure(const Scene& scene, const HitReference* reference, const Accele
     run.wrong_uv = validation.wrong_uv;
     run.outside_window = validation.outside_window;
     run.fragile = validation.fragile;
+    run.unbounded = validation.unbounded;
     run.unlocated = validation.unlocated;
     for (const auto& example : validation.examples)
       fmt::print(stderr, "mismatch ({} {} view {}): {}\n", to_string(accelerator.structure()),

@@ -49,7 +49,7 @@ double distance_to_segment(const Vec3d& p, const Vec3d& a, const Vec3d& b) {
 /// What was found wrong (or accepted as fragile) about one ray's answer.
 struct Faults {
   bool wrong_triangle = false, wrong_t = false, wrong_uv = false, outside_window = false;
-  bool fragile = false, unlocated = false;
+  bool fragile = false, unbounded = false, unlocated = false;
   std::string detail;
   bool any() const { return wrong_triangle || wrong_t || wrong_uv || outside_window; }
 };
@@ -129,7 +129,7 @@ class HitJudge {
     if (exact.parallel) return;
     const auto bound = float_test_bound(ray, p0, p1, p2, exact.t);
     if (!bound) {
-      faults.fragile = true;  // seen nearly edge-on: the float test bounds neither t nor u, v
+      faults.unbounded = true;
       return;
     }
     const double t_error = std::abs(double(hit.t) - exact.t);
@@ -223,6 +223,7 @@ Validation validate_hits(const HitReference& reference_tracer, const Scene& scen
     result.wrong_uv += f.wrong_uv;
     result.outside_window += f.outside_window;
     result.fragile += f.fragile && !f.any();
+    result.unbounded += f.unbounded;
     result.unlocated += f.unlocated;
     if (!f.any()) continue;
     ++result.mismatches;

@@ -34,9 +34,12 @@ struct Validation {
   /// The reported t lies outside [tmin, tmax] (every structure compares its t with both).
   std::uint64_t outside_window = 0;
   /// Disagreements accepted as fragile (not mismatches): a hit or miss within the tolerance of
-  /// the interval's ends or of a triangle's boundary, or barycentrics the float test cannot
-  /// bound (a triangle seen nearly edge-on).
+  /// the interval's ends or of a triangle's boundary.
   std::uint64_t fragile = 0;
+  /// Hits whose t, u, v the float test's error bound does not cover (a triangle seen nearly
+  /// edge-on, or tiny against its distance: 48 x the edge functions' error exceeds their sum),
+  /// so they are not checked.
+  std::uint64_t unbounded = 0;
   /// Any-hit answers that say occluded without saying where (t NaN: Embree's occlusion
   /// queries); accepted, but their triangle, t, u and v cannot be checked.
   std::uint64_t unlocated = 0;
