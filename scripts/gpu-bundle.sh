@@ -65,12 +65,20 @@ mkdir -p "$results"
 export LD_LIBRARY_PATH="$here/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 export IRGRID_SHARED_SCENES="$here/scenes"
 status=0
+# With an NVIDIA device present, the GPU tests must run: IRGRID_REQUIRE_GPU turns their "no GPU"
+# skip (a driver too old for the toolkit, a missing library) into a failure.
+if ls /dev/nvidia[0-9]* >/dev/null 2>&1 ||
+   { command -v nvidia-smi >/dev/null && nvidia-smi -L 2>/dev/null | grep -q '^GPU'; }; then
+  export IRGRID_REQUIRE_GPU=1
+  echo "run.sh: an NVIDIA device is present: GPU tests that skip fail"
+fi
 "$here/bin/irgrid" info | tee "$results/info.txt"
 for test in "$here"/bin/test_*; do
   name=$(basename "$test")
   "$test" --gtest_brief=1 --gtest_output="json:$results/$name.json" >"$results/$name.log" 2>&1
   code=$?
-  echo "$name: exit $code ($(grep -c '^\[  FAILED' "$results/$name.log") failed lines)"
+  echo "$name: exit $code ($(grep -c '^\[  FAILED' "$results/$name.log") failed lines," \
+    "$(grep -c '^\[  SKIPPED' "$results/$name.log") skipped lines)"
   [ $code -eq 0 ] || { status=1; tail -20 "$results/$name.log"; }
 done
 for scene in "$here"/scenes/*/*.obj.xz "$here"/scenes/*/*.ply.xz; do

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Sets up, builds and runs every test: the C++ suite (ctest; GPU tests skip cleanly without a
 # GPU), then the Python package, installed with pip into build/venv, and its pytest suite.
-# Tests reading ../shared/scenes skip when that folder is absent.
+# Tests reading ../shared/scenes skip when that folder is absent, and fail instead with
+# IRGRID_REQUIRE_SHARED_SCENES=1 (as .ci/run sets).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh

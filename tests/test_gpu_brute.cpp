@@ -7,18 +7,20 @@
 #include "irgrid/error.h"
 #include "irgrid/io/rays.h"
 #include "irgrid/system.h"
+#include "test_requirements.h"
 
 namespace irgrid {
 namespace {
 
 void skip_without_gpu() {
   const auto cuda = cuda_status();
-  if (cuda.gpus.empty()) GTEST_SKIP() << "no GPU: " << cuda.status;
+  if (cuda.gpus.empty())
+    IRGRID_SKIP_UNLESS_REQUIRED("IRGRID_REQUIRE_GPU", "no GPU: " << cuda.status);
 }
 
 TEST(GpuBruteForce, EqualsCpuBitForBit) {
   skip_without_gpu();
-  if (IsSkipped()) return;
+  if (IsSkipped() || HasFatalFailure()) return;
   const Scene scene = load_scene("builtin:cornell");
   AcceleratorOptions gpu_options;
   gpu_options.backend = Backend::cuda;

@@ -17,6 +17,7 @@
 #include "irgrid/io/camera.h"
 #include "irgrid/io/rays.h"
 #include "irgrid/system.h"
+#include "test_requirements.h"
 #if IRGRID_HAS_CUDA
 #include "cuda/grid_cuda.h"
 #endif
@@ -30,7 +31,8 @@ bool gpu_missing() {
 }
 
 #define IRGRID_SKIP_WITHOUT_GPU() \
-  if (gpu_missing()) GTEST_SKIP() << "no GPU: " << cuda_status().status
+  if (gpu_missing())              \
+  IRGRID_SKIP_UNLESS_REQUIRED("IRGRID_REQUIRE_GPU", "no GPU: " << cuda_status().status)
 
 /// Shared scenes: $IRGRID_SHARED_SCENES (a bundle on another machine), else the build's path.
 std::vector<std::string> shared_scene_paths() {
@@ -90,7 +92,8 @@ TEST(GpuGrid, SameArraysAsTheCpuOnBuiltinScenes) {
 TEST(GpuGrid, SameArraysAsTheCpuOnSharedScenes) {
   IRGRID_SKIP_WITHOUT_GPU();
   const auto paths = shared_scene_paths();
-  if (paths.empty()) GTEST_SKIP() << "no shared scenes found";
+  if (paths.empty())
+    IRGRID_SKIP_UNLESS_REQUIRED("IRGRID_REQUIRE_SHARED_SCENES", "no shared scenes found");
 #if IRGRID_HAS_CUDA
   for (const auto& path : paths)
     expect_same_grid(load_scene(path), BuildConfig{}, path);
@@ -161,7 +164,8 @@ TEST(GpuGrid, SameHitsAsTheCpuOnBuiltinScenes) {
 TEST(GpuGrid, SameHitsAsTheCpuOnSharedScenes) {
   IRGRID_SKIP_WITHOUT_GPU();
   const auto paths = shared_scene_paths();
-  if (paths.empty()) GTEST_SKIP() << "no shared scenes found";
+  if (paths.empty())
+    IRGRID_SKIP_UNLESS_REQUIRED("IRGRID_REQUIRE_SHARED_SCENES", "no shared scenes found");
   for (const auto& path : paths)
     expect_same_hits(load_scene(path), "irregular", path);
 }

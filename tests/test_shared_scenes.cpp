@@ -1,5 +1,6 @@
 // Loads the 8 real scenes of the shared scenes folder, checks the counts its README lists, and
-// traces every ray kind of every view through the irregular grid against the double reference.
+// traces every ray kind of every view through the irregular grid against the double reference
+// (every ray) and the exact oracle (a sample).
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -11,9 +12,11 @@
 
 #include "irgrid/accelerator.h"
 #include "irgrid/io/camera.h"
+#include "irgrid/io/exact.h"
 #include "irgrid/io/rays.h"
 #include "irgrid/io/scene.h"
 #include "irgrid/io/validate.h"
+#include "test_requirements.h"
 
 namespace irgrid {
 namespace {
@@ -41,7 +44,9 @@ class SharedScenesTest : public ::testing::TestWithParam<SharedScene> {};
 TEST_P(SharedScenesTest, CountsMatchReadme) {
   const SharedScene& expected = GetParam();
   const std::filesystem::path path = std::filesystem::path(IRGRID_SHARED_SCENES) / expected.file;
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << "shared scene not present: " << path;
+  if (!std::filesystem::exists(path))
+    IRGRID_SKIP_UNLESS_REQUIRED("IRGRID_REQUIRE_SHARED_SCENES",
+                                "shared scene not present: " << path);
 
   const auto start = std::chrono::steady_clock::now();
   const Scene scene = load_scene(path.string());
@@ -69,12 +74,15 @@ TEST_P(SharedScenesTest, CountsMatchReadme) {
     std::cout << "  warning: " << warning << "\n";
 }
 
-TEST_P(SharedScenesTest, IrregularGridEqualsTheDoubleReferenceOnEveryViewAndRayKind) {
+TEST_P(SharedScenesTest, IrregularGridEqualsTheReferencesOnEveryViewAndRayKind) {
   const std::filesystem::path path = std::filesystem::path(IRGRID_SHARED_SCENES) / GetParam().file;
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << "shared scene not present: " << path;
+  if (!std::filesystem::exists(path))
+    IRGRID_SKIP_UNLESS_REQUIRED("IRGRID_REQUIRE_SHARED_SCENES",
+                                "shared scene not present: " << path);
   const Scene scene = load_scene(path.string());
   const auto grid = make_accelerator(scene, Structure::irregular);
   const ReferenceTracer reference(scene);
+  const ExactTracer oracle(scene);
   // Smaller than bench's sets, every ray checked: `bench --validate` samples bigger ones.
   RayConfig config;
   config.width = 96, config.height = 64, config.spp = 2, config.count = 8192;
@@ -92,6 +100,10 @@ TEST_P(SharedScenesTest, IrregularGridEqualsTheDoubleReferenceOnEveryViewAndRayK
       EXPECT_EQ(result.mismatches, 0u)
           << scene.name << " view " << v << " " << to_string(kind) << ": "
           << (result.examples.empty() ? std::string() : result.examples.front());
+      const Validation exact = validate_hits(oracle, scene, rays, hits, query, 1500);
+      EXPECT_EQ(exact.mismatches, 0u)
+          << scene.name << " view " << v << " " << to_string(kind) << " (exact oracle): "
+          << (exact.examples.empty() ? std::string() : exact.examples.front());
       if (kind == RayKind::primary) {
         std::size_t hit_count = 0;
         for (const Hit& hit : hits)

@@ -187,8 +187,13 @@ TEST(Validation, FragileDisagreementsAreNotMismatchesButRobustOnesAre) {
   Hit at_start = reference;
   at_start.t = 0;  // a hit on the starting face, as a float test may report
   EXPECT_EQ(validate_hits(scene, rays, {&at_start, 1}, Query::closest, 1).mismatches, 0u);
-  Hit far_face = reference;
-  far_face.prim = (reference.prim + 6) % 12, far_face.t = reference.t + 1.0f;
+  // The real hit on the far face (validation checks t, u, v against the reported triangle), as
+  // a structure that skipped the near one would report it.
+  std::vector<Ray> beyond = rays;
+  beyond[0].tmin = reference.t + 0.5f;
+  Hit far_face;
+  trace_reference_double(scene, beyond, {&far_face, 1}, Query::closest);
+  ASSERT_TRUE(far_face.hit());
   EXPECT_EQ(validate_hits(scene, rays, {&far_face, 1}, Query::closest, 1).mismatches,
             reference.t > 0.5f ? 1u : 0u);
   const Hit miss;

@@ -151,6 +151,32 @@ TEST(Watertight, IntervalIsInclusiveAndRespected) {
   EXPECT_FALSE(intersect_watertight(late_ray, p0, p1, p2, kInf, hit));
 }
 
+TEST(Watertight, BarycentricsWeighTheSecondAndThirdVertex) {
+  // u and v differ (and differ from 1 - u - v), so swapping them, or naming the wrong vertex,
+  // fails: p = (1 - u - v) p0 + u p1 + v p2.
+  const Vec3<float> p0{1, 1, 0}, p1{5, 1, 0}, p2{1, 3, 0};
+  const Vec3<float> target{1.5f, 2, 0};  // (1 - u - v) p0 + u p1 + v p2, u = 0.125, v = 0.5
+  for (const float dz : {1.f, -1.f}) {
+    const Ray ray = {{target.x, target.y, -2 * dz}, 0, {0, 0, dz}, kInf};
+    TriangleHit<float> hit{};
+    ASSERT_TRUE(intersect_watertight(make_watertight_ray<float>(ray), p0, p1, p2, kInf, hit));
+    EXPECT_FLOAT_EQ(hit.t, 2.f);
+    EXPECT_FLOAT_EQ(hit.u, 0.125f);
+    EXPECT_FLOAT_EQ(hit.v, 0.5f);
+  }
+  // The same through a structure, with the vertices in a scene and a slanted ray.
+  const Scene scene = testing::scene_from_triangles(
+      {std::array<Vec3f, 3>{Vec3f{1, 1, 0}, Vec3f{5, 1, 0}, Vec3f{1, 3, 0}}});
+  ASSERT_EQ(scene.triangle_count(), 1u);
+  const std::vector<Ray> rays = {{{1, 1.75f, -1}, 0, {0.5f, 0.25f, 1}, kInf}};
+  std::vector<Hit> hits(1);
+  make_accelerator(scene, Structure::irregular)->trace(rays, hits, Query::closest);
+  ASSERT_TRUE(hits[0].hit());
+  EXPECT_FLOAT_EQ(hits[0].t, 1.f);
+  EXPECT_FLOAT_EQ(hits[0].u, 0.125f);
+  EXPECT_FLOAT_EQ(hits[0].v, 0.5f);
+}
+
 TEST(Watertight, DegenerateTrianglesAndRaysInThePlaneNeverHit) {
   TriangleHit<float> hit{};
   const auto r = make_watertight_ray<float>({{0.2f, 0.2f, -1}, 0, {0, 0, 1}, kInf});

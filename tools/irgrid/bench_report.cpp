@@ -1,6 +1,7 @@
 // Tables and JSON for `irgrid bench` (JSON layout documented in docs/bench-json.md).
 #include "bench_report.h"
 
+#include <algorithm>
 #include <fstream>
 
 #include <fmt/format.h>
@@ -38,6 +39,19 @@ void print_bench_table(const BenchResult& r) {
                run.view, run.kind, run.rays, run.hits, run.median_ms, run.mrays_per_s, run.checked,
                run.mismatches, per_ray(run.cells_per_ray), per_ray(run.tests_per_ray));
   }
+  print_validation_table(r);
+}
+
+void print_validation_table(const BenchResult& r) {
+  if (std::none_of(r.runs.begin(), r.runs.end(), [](const BenchRun& run) { return run.checked; }))
+    return;
+  fmt::print("validation:\n{:>4}  {:<8} {:>9} {:>10} {:>8} {:>9} {:>8} {:>9} {:>10} {:>10}\n",
+             "view", "kind", "checked", "wrong-tri", "wrong-t", "wrong-uv", "outside", "fragile",
+             "unbounded", "unlocated");
+  for (const auto& run : r.runs)
+    fmt::print("{:>4}  {:<8} {:>9} {:>10} {:>8} {:>9} {:>8} {:>9} {:>10} {:>10}\n", run.view,
+               run.kind, run.checked, run.wrong_triangle, run.wrong_t, run.wrong_uv,
+               run.outside_window, run.fragile, run.unbounded, run.unlocated);
 }
 
 void print_comparison(const std::vector<BenchResult>& results) {
@@ -73,6 +87,14 @@ nlohmann::json result_json(const BenchResult& r) {
                             {"rays", run.rays},           {"hits", run.hits},
                             {"median_ms", run.median_ms}, {"mrays_per_s", run.mrays_per_s},
                             {"checked", run.checked},     {"mismatches", run.mismatches}};
+    if (run.checked > 0)
+      entry["validation"] = {{"wrong_triangle", run.wrong_triangle},
+                             {"wrong_t", run.wrong_t},
+                             {"wrong_uv", run.wrong_uv},
+                             {"outside_window", run.outside_window},
+                             {"fragile", run.fragile},
+                             {"unbounded", run.unbounded},
+                             {"unlocated", run.unlocated}};
     if (run.cells_per_ray >= 0) {
       entry["cells_per_ray"] = run.cells_per_ray;
       entry["tests_per_ray"] = run.tests_per_ray;
@@ -100,7 +122,8 @@ nlohmann::json settings_json(const BenchSettings& s) {
           {"rays_file", s.rays_file},
           {"repeat", s.repeat},
           {"build_repeat", s.build_repeat},
-          {"validate", s.validate}};
+          {"validate", s.validate},
+          {"validate_reference", s.exact ? "exact" : "double"}};
 }
 
 }  // namespace

@@ -20,6 +20,9 @@ struct BenchRun {
   std::uint64_t rays = 0, hits = 0;
   double median_ms = 0, mrays_per_s = 0;
   std::uint64_t checked = 0, mismatches = 0;
+  /// The kinds of mismatch, and the accepted cases, of irgrid::Validation.
+  std::uint64_t wrong_triangle = 0, wrong_t = 0, wrong_uv = 0, outside_window = 0, fragile = 0,
+                unbounded = 0, unlocated = 0;
   /// Mean cells visited and triangles tested per ray (one counted pass, untimed); negative for
   /// structures that do not count their work.
   double cells_per_ray = -1, tests_per_ray = -1;
@@ -42,6 +45,7 @@ struct BenchSettings {
   int repeat = 5;
   int build_repeat = -1;  ///< timed builds; below 0: as many as `repeat`
   std::uint64_t validate = 10000;
+  bool exact = false;  ///< validate against the exact oracle instead of the double reference
 };
 
 /// The machine as bench's JSON names it (CPU, threads, CPU walk, GPU).
@@ -52,6 +56,9 @@ void write_json_file(const nlohmann::json& json, const std::string& path);
 
 /// A table for people on stdout.
 void print_bench_table(const BenchResult& result);
+
+/// The kinds of mismatch per run, when any run was validated (print_bench_table calls it).
+void print_validation_table(const BenchResult& result);
 
 /// MRays/s of every structure side by side, with the ratio of each to the first.
 void print_comparison(const std::vector<BenchResult>& results);

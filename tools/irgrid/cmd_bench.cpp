@@ -13,6 +13,7 @@
 #include "common.h"
 #include "irgrid/error.h"
 #include "irgrid/io/camera.h"
+#include "irgrid/io/exact.h"
 #include "irgrid/io/rays.h"
 #include "irgrid/io/validate.h"
 #include "irgrid/system.h"
@@ -103,9 +104,8 @@ void timed_build(const Scene& scene, int repeat, Contender& c) {
 }
 
 /// Validates o.validate rays against `reference`, which is null when o.validate is 0.
-BenchRun measure(const Scene& scene, const ReferenceTracer* reference,
-                 const Accelerator& accelerator, std::span<const Ray> rays, Query query,
-                 const BenchOptions& o, BenchRun run) {
+BenchRun measure(const Scene& scene, const HitReference* reference, const Accelerator& accelerator,
+                 std::span<const Ray> rays, Query query, const BenchOptions& o, BenchRun run) {
   std::vector<Hit> hits(rays.size());
   trace_with_progress(
       accelerator, rays, hits, query,
@@ -134,6 +134,13 @@ BenchRun measure(const Scene& scene, const ReferenceTracer* reference,
     const auto validation = validate_hits(*reference, scene, rays, hits, query, o.validate);
     run.checked = validation.checked;
     run.mismatches = validation.mismatches;
+    run.wrong_triangle = validation.wrong_triangle;
+    run.wrong_t = validation.wrong_t;
+    run.wrong_uv = validation.wrong_uv;
+    run.outside_window = validation.outside_window;
+    run.fragile = validation.fragile;
+    run.unbounded = validation.unbounded;
+    run.unlocated = validation.unlocated;
     for (const auto& example : validation.examples)
       fmt::print(stderr, "mismatch ({} {} view {}): {}\n", to_string(accelerator.structure()),
                  run.kind, run.view, example);
@@ -192,7 +199,7 @@ StandardRays plan_standard_rays(const Scene& scene, const BenchOptions& o) {
 
 /// Every contender traces the same rays: secondary rays come from the primary hits of one fixed
 /// structure (secondary_ray_source).
-void run_standard_kinds(const Scene& scene, const ReferenceTracer* reference, const BenchOptions& o,
+void run_standard_kinds(const Scene& scene, const HitReference* reference, const BenchOptions& o,
                         const StandardRays& plan, std::vector<Contender>& contenders) {
   const auto& [cameras, views, kinds] = plan;
   std::unique_ptr<Accelerator> built;
@@ -261,9 +268,10 @@ int run_bench(BenchOptions o) {
   auto contenders = parse_contenders(o);
   for (auto& c : contenders)
     timed_build(scene, o.build_repeat, c);
-  // The double-precision reference is built only to validate (on Crown it takes seconds).
-  std::unique_ptr<ReferenceTracer> reference;
-  if (o.validate > 0) reference = std::make_unique<ReferenceTracer>(scene);
+  // The reference is built only to validate (on Crown it takes seconds).
+  std::unique_ptr<HitReference> reference;
+  if (o.validate > 0 && o.exact) reference = std::make_unique<ExactTracer>(scene);
+  if (o.validate > 0 && !o.exact) reference = std::make_unique<ReferenceTracer>(scene);
   if (!o.rays_file.empty()) {
     for (auto& c : contenders)
       c.result.runs.push_back(measure(scene, reference.get(), *c.accelerator, file_rays,
@@ -332,6 +340,9 @@ void add_bench_command(CLI::App& app) {
                   "over this many frames of a twisting, rippling animation of the scene and "
                   "print each frame's rebuild time")
       ->check(CLI::Range(1, 100000));
+  cmd->add_flag(
+      "--exact", o->exact,
+      "Validate against the exact oracle (GMP rationals) instead of the double reference");
   cmd->add_option("--json", o->json, "Write results as JSON to this file");
   cmd->callback([o] {
     const int code = run_bench(*o);

@@ -132,32 +132,37 @@ struct ScalarLanes {
   IRGRID_HD static M all_lanes() { return true; }
 };
 
-/// Whether the float test's t of a ray that passed the inside test (edge functions u, v, w of
-/// one sign, det = u + v + w nonzero) may be on the wrong side of tmin or tmax, or be off by more
-/// than 2^-6 (1.6%) of itself: then t_in_double must decide. x, y, z, depth are the three vertices
-/// as shear_vertex gives them.
+/// Error bounds of the float test for a ray that passed the inside test (edge functions of one
+/// sign, det = their sum nonzero), from the vertices as shear_vertex gives them: `edge` bounds
+/// each edge function's error, and `t` the error of t = (u z0 + v z1 + w z2) / det while
+/// 48 edge <= |det|. The barycentrics (edge functions / det) are then off by at most
+/// 6.4 edge / |det| in all.
 ///
-/// t = (u z0 + v z1 + w z2) / det is the average of the vertices' depths weighted by the edge
-/// functions. The shear leaves each x', y' off by about 2^-24 times the vertex's distance, so
-/// the weights of a small or thin triangle far along the ray can be off by percents; t then
-/// errs by that times the spread of the depths. When the vertices lie far along the ray on both
-/// sides of it, as with a ray near the plane of a long sliver, that can exceed the distance to
-/// the triangle (t = 10.4 for a plane 0.4 behind the origin). The bound below is a forward error
-/// analysis of the float operations in the style of Pharr, Jakob, Humphreys, "Physically Based
-/// Rendering" (3rd ed., §3.9.6), with gamma_n = n 2^-24 rounded up, the shear's error taken
-/// from the vertices' unscaled depths (rays need not be of unit length), and the weights'
-/// errors multiplying the spread of the depths instead of their size: the weights sum to one,
-/// so a common depth cancels. Written once for one ray (ScalarLanes) and for the SIMD walk's
-/// lanes, with the same operations in the same order, so both flag the same tests.
+/// t is the average of the vertices' depths weighted by the edge functions. The shear leaves
+/// each x', y' off by about 2^-24 times the vertex's distance, so the weights of a small or thin
+/// triangle far along the ray can be off by percents; t then errs by that times the spread of
+/// the depths. When the vertices lie far along the ray on both sides of it, as with a ray near
+/// the plane of a long sliver, that can exceed the distance to the triangle (t = 10.4 for a
+/// plane 0.4 behind the origin). The bound below is a forward error analysis of the float
+/// operations in the style of Pharr, Jakob, Humphreys, "Physically Based Rendering" (3rd ed.,
+/// §3.9.6), with gamma_n = n 2^-24 rounded up, the shear's error taken from the vertices'
+/// unscaled depths (rays need not be of unit length), and the weights' errors multiplying the
+/// spread of the depths instead of their size: the weights sum to one, so a common depth
+/// cancels. Written once for one ray (ScalarLanes) and for the SIMD walk's lanes, with the same
+/// operations in the same order, so both get the same bounds.
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic push  // see cpu/simd_walk_avx2.cpp on -Wpsabi
 #pragma GCC diagnostic ignored "-Wpsabi"
 #endif
 template <typename A>
-IRGRID_HD IRGRID_ALWAYS_INLINE typename A::M t_needs_double(
+struct FloatTestError {
+  typename A::F edge, t;
+};
+
+template <typename A>
+IRGRID_HD IRGRID_ALWAYS_INLINE FloatTestError<A> float_test_error(
     const typename A::F (&x)[3], const typename A::F (&y)[3], const typename A::F (&z)[3],
-    const typename A::F (&depth)[3], const typename A::F& det, const typename A::F& inv_det,
-    const typename A::F& t, const typename A::F& tmin, const typename A::F& tmax) {
+    const typename A::F (&depth)[3], const typename A::F& inv_det, const typename A::F& t) {
   using F = typename A::F;
   // No lambdas: they would not inherit the SIMD walk's target options.
   const F max_xy =
@@ -182,18 +187,32 @@ IRGRID_HD IRGRID_ALWAYS_INLINE typename A::M t_needs_double(
       A::add(A::mul(A::splat(7.2f * unit), max_z), A::mul(A::splat(5.1f * unit), abs_t)),
       A::mul(A::mul(error_e, A::abs(inv_det)), A::add(A::mul(A::splat(3.4f), A::sub(z_hi, z_lo)),
                                                       A::mul(A::splat(27 * unit), max_z))));
+  return {error_e, error_t};
+}
+
+/// Whether the float test's t of a ray that passed the inside test may be on the wrong side of
+/// tmin or tmax, or be off by more than 2^-6 (1.6%) of itself (float_test_error's bounds): then
+/// t_in_double must decide. x, y, z, depth are the three vertices as shear_vertex gives them.
+template <typename A>
+IRGRID_HD IRGRID_ALWAYS_INLINE typename A::M t_needs_double(
+    const typename A::F (&x)[3], const typename A::F (&y)[3], const typename A::F (&z)[3],
+    const typename A::F (&depth)[3], const typename A::F& det, const typename A::F& inv_det,
+    const typename A::F& t, const typename A::F& tmin, const typename A::F& tmax) {
+  const FloatTestError<A> error = float_test_error<A>(x, y, z, depth, inv_det, t);
+  const typename A::F abs_t = A::abs(t);
   // Sure when t is off by less than its distance to tmin and to tmax (then it is on the right
   // side of both) and, where it is a hit, than 2^-6 of itself, so the closest of several hits
   // is not mistaken by more than that. Tests behind the origin are often known less well
   // relative to their small t, and need not be. With 2^-10, 28% of Sponza's random rays (which
   // start near large walls) redid a t in double and traced 13% slower; with 2^-6, 2%. NaN
   // compares false: such tests go to double too.
-  const auto sure_side = A::less(error_t, A::min(A::abs(A::sub(t, tmin)), A::abs(A::sub(t, tmax))));
+  const auto sure_side = A::less(error.t, A::min(A::abs(A::sub(t, tmin)), A::abs(A::sub(t, tmax))));
   const auto outside = A::either(A::less(t, tmin), A::less(tmax, t));
   const auto sure_value =
-      A::either(A::less_equal(error_t, A::mul(A::splat(0x1p-6f), abs_t)), outside);
-  const auto sure = A::both(
-      A::both(A::less_equal(A::mul(A::splat(64.f), error_e), A::abs(det)), sure_side), sure_value);
+      A::either(A::less_equal(error.t, A::mul(A::splat(0x1p-6f), abs_t)), outside);
+  const auto sure =
+      A::both(A::both(A::less_equal(A::mul(A::splat(64.f), error.edge), A::abs(det)), sure_side),
+              sure_value);
   return A::but_not(sure, A::all_lanes());
 }
 #if defined(__GNUC__) && !defined(__clang__)
