@@ -2,6 +2,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <algorithm>
 #include <array>
 #include <utility>
 
@@ -169,7 +170,9 @@ Backend resolve_backend(Backend backend) {
 
 std::unique_ptr<Accelerator> make_accelerator(const TriangleMesh& mesh, Structure structure,
                                               const AcceleratorOptions& options) {
-  parse_structure(to_string(structure));  // throws for a structure this build lacks
+  const auto compiled = available_structures();
+  if (std::find(compiled.begin(), compiled.end(), structure) == compiled.end())
+    parse_structure(to_string(structure));  // throws, naming the structures of this build
   const Backend backend = resolve_backend(options.backend);
   check_mesh(mesh);
   check_cpu_walk(options.cpu_walk);
