@@ -31,7 +31,9 @@ void add_build_stats_json(nlohmann::json& out, Structure structure, const BuildS
                      {"top_z", g.top_dims[2]},
                      {"depth", g.depth},
                      {"compressed_cells", g.compressed_cells ? 1 : 0},
-                     {"peak_build_bytes", g.peak_build_bytes}};
+                     {"peak_build_bytes", g.peak_build_bytes},
+                     {"budget_bytes", g.budget_bytes},
+                     {"budget_limited", g.budget_limited ? 1 : 0}};
   }
   if (!grid) return;
   out["config"] = {{"lambda1", grid->lambda1},
@@ -44,7 +46,8 @@ void add_build_stats_json(nlohmann::json& out, Structure structure, const BuildS
                    {"expansion_passes", grid->expansion_passes},
                    {"partial_expansion", grid->partial_expansion},
                    {"skip_empty", grid->skip_empty},
-                   {"compress", grid->compress}};
+                   {"compress", grid->compress},
+                   {"memory_budget", grid->memory_budget}};
   if (structure == Structure::irregular && stats.grid)
     out["lambda2_used"] = stats.grid->lambda2_used;
 }
