@@ -1,8 +1,6 @@
 // Tables and JSON for `irgrid bench` (JSON layout documented in docs/bench-json.md).
 #include "bench_report.h"
 
-#include <fstream>
-
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
@@ -10,6 +8,7 @@
 #include "config_json.h"
 #include "irgrid/error.h"
 #include "irgrid/io/machine.h"
+#include "irgrid/io/output_file.h"
 #include "irgrid/system.h"
 
 namespace irgrid::cli {
@@ -121,10 +120,7 @@ void write_bench_json(const std::vector<BenchResult>& results, const std::string
     for (const auto& r : results)
       out["compare"].push_back(result_json(r));
   }
-  std::ofstream file(path);
-  if (!file) throw Error(ErrorCode::io, fmt::format("{}: cannot create", path));
-  file << out.dump(2) << '\n';
-  if (!file.flush()) throw Error(ErrorCode::io, fmt::format("{}: write failed", path));
+  write_file_whole(path, out.dump(2) + '\n');
 }
 
 }  // namespace irgrid::cli
