@@ -7,7 +7,7 @@ set -euo pipefail
 packages=(build-essential cmake ninja-build pkg-config xz-utils
           libtbb-dev libfmt-dev nlohmann-json3-dev libcli11-dev libtinyobjloader-dev libstb-dev
           zlib1g-dev liblzma-dev libgtest-dev libembree-dev python3 python3-dev python3-venv
-          libgmp-dev)
+          libgmp-dev clang libclang-rt-14-dev)  # clang: the fuzz targets (scripts/fuzz.sh)
 
 missing=()
 for package in "${packages[@]}"; do

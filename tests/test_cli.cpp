@@ -3,6 +3,7 @@
 
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -11,6 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "irgrid/accelerator.h"
 #include "irgrid/system.h"
 
 namespace {
@@ -470,3 +472,52 @@ TEST_F(Cli, RenderWritesAPng) {
 }
 
 }  // namespace
+
+namespace irgrid {
+namespace {
+
+TEST_F(Cli, AFullDiskFailsTheCommandAndLeavesNoTruncatedFile) {
+  if (!fs::exists("/dev/full")) GTEST_SKIP() << "no /dev/full";
+  // render and build --json once said "wrote ..." and exited 0.
+  for (const std::string& command :
+       {"render builtin:cube -w 16 -h 16 -o /dev/full", "rays builtin:cube -w 8 -h 8 -o /dev/full",
+        "build builtin:cube --json /dev/full",
+        "bench builtin:cube --width 8 --height 8 --repeat 1 --json /dev/full"}) {
+    const auto r = run(command);
+    EXPECT_NE(r.code, 0) << command;
+    EXPECT_NE(r.err.find("/dev/full"), std::string::npos) << command << ": " << r.err;
+  }
+  // A complete file appears only under its final name, with no temporary file left beside it.
+  const auto png = dir / "whole.png";
+  fs::remove(png);
+  ASSERT_EQ(run("render builtin:cube -w 16 -h 16 -o " + png.string()).code, 0);
+  EXPECT_GT(fs::file_size(png), 8u);
+  for (const auto& entry : fs::directory_iterator(dir))
+    EXPECT_EQ(entry.path().filename().string().find(".tmp-"), std::string::npos) << entry.path();
+}
+
+TEST_F(Cli, ABudgetLimitedBuildWarnsAndSucceeds) {
+  const auto r = run("build builtin:teapot-stadium:3000 --memory-budget 1");
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("warning: the grid reached its construction budget of 1 MiB"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(run("build builtin:teapot-stadium:3000").err.find("construction budget"),
+            std::string::npos);
+}
+
+TEST_F(Cli, EmbreeTracesRaysWithANegativeTmin) {
+  const auto structures = available_structures();
+  if (std::find(structures.begin(), structures.end(), Structure::embree) == structures.end())
+    GTEST_SKIP() << "no Embree in this build";
+  const auto rays = (dir / "negative.rays").string(), hits = (dir / "negative.hits").string();
+  ASSERT_EQ(run("rays builtin:cube --kind random --count 50 --format hagrid -o " + rays).code, 0);
+  for (const char* structure : {"embree", "embree-packets"}) {
+    const auto r = run("trace builtin:cube --rays " + rays + " --format hagrid --tmin -1 -o " +
+                       hits + " --structure " + structure);
+    EXPECT_EQ(r.code, 0) << structure << ": " << r.err;
+  }
+}
+
+}  // namespace
+}  // namespace irgrid

@@ -427,27 +427,50 @@ struct TinyMemoryLevelByLevelExecutor : TinyMemoryExecutor {
 };
 
 template <typename Exec>
-void expect_octrees_stop_for_memory() {
-  const Scene scene = load_scene("builtin:teapot-stadium:4000");
+GridArrays<Exec> build_on(const Scene& scene, const BuildConfig& config) {
   Exec exec;
   GridArrays<Exec> grid;
   gather_triangles(scene.mesh(), grid.triangles);
   PhaseTimes phases;
-  try {
-    build_grid(exec, grid, BuildConfig{}, phases);
-    FAIL() << "no error";
-  } catch (const Error& e) {
-    EXPECT_EQ(e.code(), ErrorCode::out_of_memory);
-    EXPECT_NE(std::string(e.what()).find("lambda2"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("1 MiB"), std::string::npos) << e.what();
+  build_grid(exec, grid, config, phases);
+  return grid;
+}
+
+TEST(GridLimits, OctreesThatOutgrowTheMemoryStopAtTheLastLevelThatFits) {
+  // A huge lambda2 once ran the octrees until the system killed the process, then stopped with
+  // an error; now they stop at the last level that fits half the machine's memory (here 1 MiB),
+  // the same grid whichever way they are built.
+  const Scene scene = load_scene("builtin:teapot-stadium:4000");
+  for (const BuildConfig& config : {testing::initial_grid_config(), BuildConfig{}}) {
+    const auto depth_first = build_on<TinyMemoryExecutor>(scene, config);
+    const auto level_by_level = build_on<TinyMemoryLevelByLevelExecutor>(scene, config);
+    testing::expect_same_grid(depth_first, level_by_level);
+    EXPECT_TRUE(depth_first.budget_limited);
+    EXPECT_TRUE(level_by_level.budget_limited);
+    EXPECT_EQ(depth_first.budget_bytes, std::uint64_t(1) << 19);
+    if (config.alpha == 0)
+      EXPECT_LE(octree_peak_bytes(depth_first.info.num_entries, depth_first.info.num_cells,
+                                  depth_first.info.num_refs),
+                depth_first.budget_bytes);
   }
 }
 
-TEST(GridLimits, OctreesThatOutgrowTheMemoryStopWithAnError) {
-  // A huge lambda2 once ran the octrees until the system killed the process; now they stop as
-  // soon as the build would need more than the machine has, built either way.
-  expect_octrees_stop_for_memory<TinyMemoryExecutor>();
-  expect_octrees_stop_for_memory<TinyMemoryLevelByLevelExecutor>();
+TEST(GridLimits, BudgetLimitedOctreesEqualEitherWay) {
+  // Budgets that stop the octrees at different levels, and splits that do not pay (overlap).
+  for (const char* spec :
+       {"builtin:teapot-stadium:3000", "builtin:overlap:2000", "builtin:stack:3000"}) {
+    const Scene scene = load_scene(spec);
+    for (std::uint64_t budget : {std::uint64_t(0), std::uint64_t(1) << 22, std::uint64_t(1) << 20,
+                                 std::uint64_t(300) << 10}) {
+      SCOPED_TRACE(::testing::Message() << spec << ", budget " << budget);
+      BuildConfig config;
+      config.memory_budget = budget;
+      const auto depth_first = build_on<CpuExecutor>(scene, config);
+      const auto level_by_level = build_on<LevelByLevelExecutor>(scene, config);
+      testing::expect_same_grid(depth_first, level_by_level);
+      EXPECT_EQ(depth_first.budget_limited, level_by_level.budget_limited);
+    }
+  }
 }
 
 TEST(GridLimits, ATopGridThatOutgrowsTheMemoryStopsBeforeItIsAllocated) {

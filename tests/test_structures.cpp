@@ -72,6 +72,27 @@ TEST_P(EveryStructure, RespectsTminAndTmax) {
   EXPECT_FALSE(hits[3].hit());
 }
 
+TEST_P(EveryStructure, ANegativeTminFindsHitsBehindTheOrigin) {
+  // Embree asserts on tnear < 0 (Debian's build aborted `trace --structure embree`); its rays
+  // now start at org + tmin dir instead, and every structure finds the same hits.
+  const Scene scene = load_scene("builtin:cube");
+  const auto structure = make_accelerator(scene, GetParam());
+  const float inf = std::numeric_limits<float>::infinity();
+  const std::vector<Ray> rays = {{{0.1f, 0.2f, 0}, -10, {0, 0, 1}, 100},
+                                 {{0.1f, 0.2f, 0}, -10, {0, 0, 1}, -2},
+                                 {{0.1f, 0.2f, 0}, -inf, {0, 0, 1}, 0.5f},
+                                 {{0.1f, 0.2f, 3}, -0.5f, {0, 0, 1}, inf}};
+  for (Query query : {Query::closest, Query::any}) {
+    std::vector<Hit> hits(rays.size());
+    structure->trace(rays, hits, query);
+    EXPECT_TRUE(hits[0].hit());
+    EXPECT_FALSE(hits[1].hit());
+    EXPECT_FALSE(hits[3].hit());
+    if (query == Query::closest) EXPECT_NEAR(hits[0].t, -1.f, 1e-5f);
+    (void)hits[2];  // -inf: the grids clip it to the box; Embree cannot start it anywhere
+  }
+}
+
 TEST_P(EveryStructure, RejectsMismatchedSpans) {
   const Scene scene = load_scene("builtin:cube");
   const auto structure = make_accelerator(scene, GetParam());
@@ -138,11 +159,19 @@ TEST_P(EveryStructure, MalformedRaysMissInsteadOfFailing) {
   // `irgrid trace --structure embree` on them); the grids and the brute force always missed.
   const float nan = std::nanf(""), inf = std::numeric_limits<float>::infinity();
   const std::vector<Ray> rays = {
-      {{nan, 0.5f, 5}, 0, {0, 0, -1}, inf},    {{0.5f, 0.5f, 5}, 0, {nan, 0, -1}, inf},
-      {{inf, 0.5f, 5}, 0, {-1, 0, 0}, inf},    {{0.5f, 0.5f, 5}, 0, {0, 1e30f, -1e30f}, inf},
-      {{0.5f, 0.5f, 5}, nan, {0, 0, -1}, inf}, {{0.5f, 0.5f, 5}, 0, {0, 0, -1}, nan},
-      {{0.5f, 0.5f, 5}, 8, {0, 0, -1}, 1},     {{0.5f, 0.5f, 5}, 0, {0, 0, -1}, -inf},
-      {{0.5f, 0.5f, 5}, 0, {0, 0, 0}, inf}};
+      {{nan, 0.5f, 5}, 0, {0, 0, -1}, inf},
+      {{0.5f, 0.5f, 5}, 0, {nan, 0, -1}, inf},
+      {{inf, 0.5f, 5}, 0, {-1, 0, 0}, inf},
+      {{0.5f, 0.5f, 5}, 0, {0, 1e30f, -1e30f}, inf},
+      {{0.5f, 0.5f, 5}, nan, {0, 0, -1}, inf},
+      {{0.5f, 0.5f, 5}, 0, {0, 0, -1}, nan},
+      {{0.5f, 0.5f, 5}, 8, {0, 0, -1}, 1},
+      {{0.5f, 0.5f, 5}, 0, {0, 0, -1}, -inf},
+      {{0.5f, 0.5f, 5}, 0, {0, 0, 0}, inf},
+      // An infinite direction once hit at t = 0 on the grids and the brute force.
+      {{0.5f, 0.5f, 5}, 0, {0, 0, -inf}, inf},
+      {{0.5f, 0.5f, 5}, 0, {0.1f, inf, -inf}, inf},
+      {{0.5f, 0.5f, 5}, 0, {-inf, 0, -1}, inf}};
   const Scene scene = hand_made_square();
   const auto structure = make_accelerator(scene, GetParam());
   for (Query query : {Query::closest, Query::any}) {

@@ -101,6 +101,11 @@ struct GridStats {
   /// earlier builds of the same accelerator filled (0 when a rebuild reused them all). 0 on the
   /// CPU, whose builds take their buffers from the host allocator each time.
   std::uint64_t fresh_allocations = 0;
+  /// The construction budget this build had (BuildConfig::memory_budget, resolved).
+  std::uint64_t budget_bytes = 0;
+  /// The budget made the grid coarser than its parameters ask (a coarser top grid, octrees
+  /// cut short): it still traces correctly, more slowly. Callers may warn.
+  bool budget_limited = false;
 };
 
 /// Time spent in one parallel primitive of a CPU grid build (AcceleratorOptions::

@@ -43,12 +43,24 @@ struct BuildConfig {
   bool skip_empty = true;
   /// 16-byte cells when the virtual grid fits 16 bits per axis.
   bool compress = true;
+  /// Bytes the construction may spend on the grid's cells, map entries and references, as
+  /// counted at the build's peak (about 3 times the final arrays). A build that would pass it
+  /// degrades instead of failing: first a coarser top grid (λ1 divided by 8 until its
+  /// references fit), then octrees cut at the last level that fits; GridStats::budget_limited
+  /// reports it. 0: automatic, kBudgetBytesPerTriangle x triangles + kBudgetBaseBytes, at most
+  /// half the host memory available to a CPU build (docs/robustness.md).
+  std::uint64_t memory_budget = 0;
   /// Baselines built from the same phases: split every top cell fully to its depth (two-level
   /// grid, Kalojanov et al. 2011) or not at all (uniform grid); merging and expansion off.
   enum class Shape { irregular, two_level, uniform } shape = Shape::irregular;
 
   friend bool operator==(const BuildConfig&, const BuildConfig&) = default;
 };
+
+/// The automatic BuildConfig::memory_budget: this many bytes per triangle, ...
+inline constexpr std::uint64_t kBudgetBytesPerTriangle = 1024;
+/// ... plus this many, so that small scenes keep the fine grids of BuildConfig::min_cells.
+inline constexpr std::uint64_t kBudgetBaseBytes = std::uint64_t(96) << 20;
 
 /// The λ2 the octrees use over `top_level_refs` references: config.lambda2, raised to
 /// config.min_cells / top_level_refs where that is larger (BuildConfig::min_cells).

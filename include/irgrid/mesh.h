@@ -33,7 +33,9 @@ struct TriangleMesh {
 /// array with a non-zero count, a stride below 12 or not a multiple of 4, a vertex index out of
 /// range, or a vertex with a NaN or infinite coordinate used by a triangle (the first such
 /// triangle is named); Error{limit_exceeded} past 2^32 - 1 triangles or vertices, the range of
-/// the 32-bit ids. Zero-area triangles are valid: no ray hits them. make_accelerator and
+/// the 32-bit ids, for a coordinate beyond 2^60 (1.15e18) in magnitude, or for triangles that
+/// span less than 2^-40 (9.1e-13) along every axis (the float range of the watertight test,
+/// docs/robustness.md). Zero-area triangles are valid: no ray hits them. make_accelerator and
 /// rebuild call it.
 void check_mesh(const TriangleMesh& mesh);
 

@@ -159,6 +159,8 @@ class PyAccelerator {
       out["compressed_cells"] = g.compressed_cells;
       out["lambda2_used"] = g.lambda2_used;
       out["peak_build_bytes"] = g.peak_build_bytes;
+      out["budget_bytes"] = g.budget_bytes;
+      out["budget_limited"] = g.budget_limited;
     }
     return out;
   }
@@ -232,7 +234,8 @@ NB_MODULE(_irgrid, m) {
       .def_rw("expansion_passes", &BuildConfig::expansion_passes)
       .def_rw("partial_expansion", &BuildConfig::partial_expansion)
       .def_rw("skip_empty", &BuildConfig::skip_empty)
-      .def_rw("compress", &BuildConfig::compress);
+      .def_rw("compress", &BuildConfig::compress)
+      .def_rw("memory_budget", &BuildConfig::memory_budget);
   nb::class_<PyAccelerator>(m, "Accelerator")
       .def(nb::init<const python::FloatRows&, const python::IndexRows&, const std::string&,
                     const std::string&, const BuildConfig&>(),

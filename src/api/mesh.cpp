@@ -29,6 +29,11 @@ void check_mesh(const TriangleMesh& mesh) {
                 fmt::format("mesh: vertex_stride {} bytes; it must be a multiple of 4 and at "
                             "least 12 (float3)",
                             mesh.vertex_stride));
+  // Past these the watertight test's products of three coordinates leave the float range, and
+  // hits went wrong without a word (a cube at 1e19 hit the wrong face with NaN barycentrics,
+  // one at 1e-15 missed); docs/robustness.md.
+  constexpr float kMaxCoordinate = 0x1p60f, kMinExtent = 0x1p-40f;
+  float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
   for (std::size_t i = 0; i < mesh.triangle_count; ++i)
     for (int k = 0; k < 3; ++k) {
       const std::uint32_t index = mesh.indices[3 * i + k];
@@ -42,7 +47,24 @@ void check_mesh(const TriangleMesh& mesh) {
                     fmt::format("mesh: triangle {} uses vertex {} = ({}, {}, {}), which is not "
                                 "finite",
                                 i, index, p[0], p[1], p[2]));
+      for (int a = 0; a < 3; ++a) {
+        if (std::fabs(p[a]) > kMaxCoordinate)
+          throw Error(ErrorCode::limit_exceeded,
+                      fmt::format("mesh: triangle {} uses vertex {} = ({}, {}, {}); coordinates "
+                                  "beyond 2^60 (1.15e18) in magnitude overflow the watertight "
+                                  "test's float products: scale the scene down",
+                                  i, index, p[0], p[1], p[2]));
+        lo[a] = std::fmin(lo[a], p[a]);
+        hi[a] = std::fmax(hi[a], p[a]);
+      }
     }
+  const float extent = std::fmax(hi[0] - lo[0], std::fmax(hi[1] - lo[1], hi[2] - lo[2]));
+  if (extent > 0 && extent < kMinExtent)
+    throw Error(ErrorCode::limit_exceeded,
+                fmt::format("mesh: the triangles span only {} units; scenes narrower than 2^-40 "
+                            "(9.1e-13) underflow the watertight test's float products: scale the "
+                            "scene up",
+                            extent));
 }
 
 }  // namespace irgrid

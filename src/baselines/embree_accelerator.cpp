@@ -108,10 +108,13 @@ class EmbreeCpu final : public Accelerator {
           trace_packet(rays, hits, first, std::min(kPacket, range.end() - first), query, context);
         return;
       }
-      for (std::size_t i = range.begin(); i != range.end(); ++i)
-        hits[i] = !embree_accepts(rays[i])  ? Hit{}
-                  : query == Query::closest ? intersect(rays[i], context)
-                                            : occluded(rays[i], context);
+      for (std::size_t i = range.begin(); i != range.end(); ++i) {
+        float shift;
+        const Ray ray = embree_ray(rays[i], shift);
+        hits[i] = !embree_accepts(ray)      ? Hit{}
+                  : query == Query::closest ? intersect(ray, shift, context)
+                                            : occluded(ray, context);
+      }
     });
   }
 
@@ -157,17 +160,33 @@ class EmbreeCpu final : public Accelerator {
     std::memcpy(out, mesh.indices, mesh.triangle_count * 3 * sizeof(std::uint32_t));
   }
 
-  /// Whether Embree may be given the ray. Embree 3 asserts (Debian's build aborts) on a ray
-  /// whose origin or direction has a component that is not a number or exceeds 1.844e18 in
-  /// magnitude, or whose tnear or tfar is not a number; and a ray with tmin > tmax has no
-  /// interval to hit in (its tfar could even read as "occluded"). Such rays miss here. irgrid's
-  /// own structures miss the NaN ones and the empty intervals too, and trace the huge ones; a
-  /// hit the reference finds there counts as Embree's mismatch in validation.
+  /// Whether Embree may be given the ray (as embree_ray makes it). Embree 3 asserts (Debian's
+  /// build aborts) on a ray whose origin or direction has a component that is not a number or
+  /// exceeds 1.844e18 in magnitude, or whose tnear or tfar is not a number or negative; and a
+  /// ray with tmin > tmax has no interval to hit in (its tfar could even read as "occluded").
+  /// Such rays miss here. irgrid's own structures miss the NaN ones and the empty intervals
+  /// too, and trace the huge ones; a hit the reference finds there counts as Embree's mismatch
+  /// in validation.
   static bool embree_accepts(const Ray& ray) {
     constexpr float kLargest = 1.844e18f;  // Embree's FLT_LARGE
     for (int a = 0; a < 3; ++a)
       if (!(std::fabs(ray.org[a]) <= kLargest && std::fabs(ray.dir[a]) <= kLargest)) return false;
-    return ray.tmin <= ray.tmax;  // false when either is NaN
+    return ray.tmin >= 0 && ray.tmin <= ray.tmax;  // false when either is NaN
+  }
+
+  /// The ray Embree traces: Embree needs tnear >= 0, so a ray with a negative tmin starts at
+  /// org + tmin dir instead, its interval shifted by -tmin; `shift` (tmin, or 0) is added back
+  /// to the distance of its hit.
+  static Ray embree_ray(const Ray& ray, float& shift) {
+    shift = 0;
+    if (!(ray.tmin < 0)) return ray;
+    Ray moved = ray;
+    shift = ray.tmin;
+    for (int a = 0; a < 3; ++a)
+      moved.org[a] = ray.org[a] + ray.tmin * ray.dir[a];
+    moved.tmin = 0;
+    moved.tmax = ray.tmax - ray.tmin;
+    return moved;
   }
 
   static RTCRay to_embree(const Ray& ray) {
@@ -177,14 +196,15 @@ class EmbreeCpu final : public Accelerator {
     r.time = 0, r.mask = 0xFFFFFFFFu, r.id = 0, r.flags = 0;
     return r;
   }
-  Hit intersect(const Ray& ray, RTCIntersectContext& context) const {
+  /// The closest hit of a ray embree_ray made (`shift` its shift).
+  Hit intersect(const Ray& ray, float shift, RTCIntersectContext& context) const {
     RTCRayHit rayhit;
     rayhit.ray = to_embree(ray);
     rayhit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rayhit.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
     rtcIntersect1(scene_, &context, &rayhit);
     if (rayhit.hit.geomID == RTC_INVALID_GEOMETRY_ID) return Hit{};
-    return {rayhit.hit.primID, rayhit.ray.tfar, rayhit.hit.u, rayhit.hit.v};
+    return {rayhit.hit.primID, rayhit.ray.tfar + shift, rayhit.hit.u, rayhit.hit.v};
   }
   Hit occluded(const Ray& ray, RTCIntersectContext& context) const {
     RTCRay r = to_embree(ray);
@@ -206,12 +226,14 @@ class EmbreeCpu final : public Accelerator {
   void trace_packet(std::span<const Ray> rays, std::span<Hit> hits, std::size_t first,
                     std::size_t count, Query query, RTCIntersectContext& context) const {
     alignas(32) int valid[kPacket];
+    float shift[kPacket] = {};
     RTCRayHit8 packet;
     RTCRay8& r = packet.ray;
     for (std::size_t k = 0; k < kPacket; ++k) {
-      valid[k] = k < count && embree_accepts(rays[first + k]) ? -1 : 0;
+      const Ray moved = k < count ? embree_ray(rays[first + k], shift[k]) : kIdleRay;
+      valid[k] = k < count && embree_accepts(moved) ? -1 : 0;
       // Inactive slots hold a harmless ray rather than a rejected one's numbers.
-      const Ray& ray = valid[k] ? rays[first + k] : kIdleRay;
+      const Ray& ray = valid[k] ? moved : kIdleRay;
       r.org_x[k] = ray.org[0], r.org_y[k] = ray.org[1], r.org_z[k] = ray.org[2];
       r.tnear[k] = ray.tmin;
       r.dir_x[k] = ray.dir[0], r.dir_y[k] = ray.dir[1], r.dir_z[k] = ray.dir[2];
@@ -231,7 +253,7 @@ class EmbreeCpu final : public Accelerator {
       hits[first + k] =
           !valid[k] || packet.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID
               ? Hit{}
-              : Hit{packet.hit.primID[k], r.tfar[k], packet.hit.u[k], packet.hit.v[k]};
+              : Hit{packet.hit.primID[k], r.tfar[k] + shift[k], packet.hit.u[k], packet.hit.v[k]};
   }
 
   // Embree reports each allocation (bytes > 0) and release (bytes < 0) through this callback.

@@ -40,8 +40,9 @@ class BruteForceCpu final : public Accelerator {
   }
 
   Hit trace_one(const Ray& ray, Query query) const {
-    const auto r = make_watertight_ray<float>(ray);
     Hit best;
+    if (!ray_is_finite(ray)) return best;
+    const auto r = make_watertight_ray<float>(ray);
     TriangleHit<float> hit;
     for (std::size_t j = 0; j < triangles_.size(); ++j) {
       const auto& tri = triangles_[j];

@@ -56,8 +56,7 @@ class GridCpu final : public GridAcceleratorBase {
       if (!compact_cells_.empty()) grid_.cells = {};
     }
     info_.build_ms = elapsed_ms<std::chrono::steady_clock>(start);
-    record_grid_statistics(grid_.info, grid_.top_level_refs, !compact_cells_.empty(),
-                           grid_.empty_radii.size(), options_.grid,
+    record_grid_statistics(grid_, !compact_cells_.empty(), options_.grid,
                            std::uint64_t(MemoryMeter::peak() - before), info_);
     if (options_.profile_primitives) info_.primitives = primitives_by_time(exec);
   }

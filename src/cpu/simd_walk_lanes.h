@@ -117,7 +117,12 @@ struct LaneWalk {
       t_enter = V::select(flat, V::max(near, t_enter), V::select(missed, t_enter, one));
       t_leave = V::select(flat, V::min(far, t_leave), V::select(missed, t_leave, zero));
     }
-    const M enters = V::both(starting, compare<_CMP_LE_OQ>(t_enter, t_leave));
+    // ray_is_finite: x - x is 0 only for finite x.
+    M finite = starting;
+    for (int a = 0; a < 3; ++a)
+      finite = V::both(finite, V::both(compare<_CMP_EQ_OQ>(V::sub(org[a], org[a]), zero),
+                                       compare<_CMP_EQ_OQ>(V::sub(dir[a], dir[a]), zero)));
+    const M enters = V::both(finite, compare<_CMP_LE_OQ>(t_enter, t_leave));
     // make_watertight_ray
     F magnitude[3];
     for (int a = 0; a < 3; ++a)

@@ -14,8 +14,12 @@ __global__ void __launch_bounds__(128)
                        const TriangleVertices* triangles, std::uint32_t triangle_count, bool any) {
   const std::size_t i = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x;
   if (i >= ray_count) return;
-  const auto r = make_watertight_ray<float>(rays[i]);
   Hit best;
+  if (!ray_is_finite(rays[i])) {
+    hits[i] = best;
+    return;
+  }
+  const auto r = make_watertight_ray<float>(rays[i]);
   TriangleHit<float> hit;
   for (std::uint32_t j = 0; j < triangle_count; ++j) {
     const TriangleVertices& tri = triangles[j];  // read in place: the test indexes it

@@ -104,8 +104,8 @@ class GridCuda final : public GridAcceleratorBase {
       if (!compact_cells_.empty()) grid_.cells.reset();
     }
     info_.build_ms = elapsed_ms<std::chrono::steady_clock>(start);
-    record_grid_statistics(grid_.info, grid_.top_level_refs, !compact_cells_.empty(),
-                           grid_.empty_radii.size(), options_.grid, exec_.pool().peak(), info_);
+    record_grid_statistics(grid_, !compact_cells_.empty(), options_.grid, exec_.pool().peak(),
+                           info_);
     info_.grid->fresh_allocations = exec_.pool().fresh_allocations() - fresh_before;
   }
 

@@ -2,7 +2,6 @@
 #include "bench_report.h"
 
 #include <algorithm>
-#include <fstream>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -11,6 +10,7 @@
 #include "config_json.h"
 #include "irgrid/error.h"
 #include "irgrid/io/machine.h"
+#include "irgrid/io/output_file.h"
 #include "irgrid/system.h"
 
 namespace irgrid::cli {
@@ -137,10 +137,7 @@ nlohmann::json machine_json() {
 }
 
 void write_json_file(const nlohmann::json& json, const std::string& path) {
-  std::ofstream file(path);
-  if (!file) throw Error(ErrorCode::io, fmt::format("{}: cannot create", path));
-  file << json.dump(2) << '\n';
-  if (!file.flush()) throw Error(ErrorCode::io, fmt::format("{}: write failed", path));
+  write_file_whole(path, json.dump(2) + '\n');
 }
 
 void write_bench_json(const std::vector<BenchResult>& results, const std::string& scene_file,

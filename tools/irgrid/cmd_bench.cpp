@@ -90,6 +90,7 @@ void timed_build(const Scene& scene, int repeat, Contender& c) {
   }
   if (times.empty()) times.push_back(c.accelerator->build_stats().build_ms);  // the warm-up's
   progress.done();
+  warn_if_budget_limited(*c.accelerator);
   c.result = {scene.name,
               scene.triangle_count(),
               to_string(c.accelerator->structure()),
@@ -163,6 +164,9 @@ std::vector<int> chosen_views(const BenchOptions& o, std::size_t available) {
                   fmt::format("--views: '{}' is not a view index below {}", part, available));
     views.push_back(int(index));
   }
+  if (views.empty())
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("--views '{}' names no view index", o.views));
   return views;
 }
 
@@ -194,6 +198,10 @@ StandardRays plan_standard_rays(const Scene& scene, const BenchOptions& o) {
   plan.views = chosen_views(o, plan.cameras.size());
   for (const auto& name : split_list(o.kinds))
     plan.kinds.push_back(parse_ray_kind(name));
+  if (plan.kinds.empty())
+    throw Error(
+        ErrorCode::invalid_argument,
+        fmt::format("--kinds '{}' names no ray kind (primary, ao, diffuse, random)", o.kinds));
   return plan;
 }
 
@@ -316,25 +324,28 @@ void add_bench_command(CLI::App& app) {
       ->check(CLI::Range(1, kMaxSamplesPerHit));
   cmd->add_option("--width", o->config.width, "Image width of primary rays")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(whole_number(1));
   cmd->add_option("--height", o->config.height, "Image height of primary rays")
-      ->check(CLI::PositiveNumber)
+      ->check(whole_number(1))
       ->capture_default_str();
-  cmd->add_option("--count", o->config.count, "Random rays (default: width x height)");
+  cmd->add_option("--count", o->config.count, "Random rays (default: width x height)")
+      ->check(whole_number(0));
   cmd->add_option("--seed", o->config.seed, "Random seed")->capture_default_str();
   cmd->add_option("--rays", o->rays_file, "Trace the rays of this file instead (kind 'file')");
   cmd->add_option("--format", o->format, "Format of --rays: irgrid or hagrid")
       ->capture_default_str();
   cmd->add_flag("--any-hit", o->any_hit, "With --rays: occlusion queries");
   cmd->add_option("--repeat", o->repeat, "Timed repetitions (median reported)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(whole_number(1));
   cmd->add_option("--build-repeat", o->build_repeat,
                   "Timed builds after the warm-up build (default: as many as --repeat; 0: report "
                   "the warm-up build)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(whole_number(0));
   cmd->add_option("--validate", o->validate,
                   "Rays per run checked against the double reference (0: off)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(whole_number(0));
   cmd->add_option("--rebuild", o->rebuild,
                   "Instead of tracing: rebuild each structure (default: irregular and embree) "
                   "over this many frames of a twisting, rippling animation of the scene and "

@@ -1,6 +1,5 @@
 // `irgrid build`: builds a structure and prints its statistics (counts, bytes, phase times).
 #include <algorithm>
-#include <fstream>
 #include <string>
 #include <vector>
 
@@ -11,6 +10,7 @@
 #include "common.h"
 #include "config_json.h"
 #include "irgrid/error.h"
+#include "irgrid/io/output_file.h"
 
 namespace irgrid::cli {
 namespace {
@@ -70,10 +70,7 @@ void run_build(const BuildOptions& o) {
   print_statistics(scene, *accelerator, o.structure.grid);
   if (o.json.empty()) return;
   const auto statistics = statistics_json(scene, o.scene, *accelerator, o.structure.grid);
-  std::ofstream file(o.json);
-  if (!file) throw Error(ErrorCode::io, fmt::format("{}: cannot create", o.json));
-  file << statistics.dump(2) << '\n';
-  if (!file.flush()) throw Error(ErrorCode::io, fmt::format("{}: write failed", o.json));
+  write_file_whole(o.json, statistics.dump(2) + '\n');
 }
 
 }  // namespace

@@ -44,13 +44,15 @@ void add_rays_command(CLI::App& app) {
   cmd->add_option("--spp", o->config.spp, "Secondary rays per primary hit (ao, diffuse)")
       ->capture_default_str()
       ->check(CLI::Range(1, kMaxSamplesPerHit));
-  cmd->add_option("--count", o->config.count, "Number of random rays")->capture_default_str();
+  cmd->add_option("--count", o->config.count, "Number of random rays")
+      ->capture_default_str()
+      ->check(whole_number(1));
   cmd->add_option("-w,--width", o->config.width, "Image width")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(whole_number(1));
   cmd->add_option("-h,--height", o->config.height, "Image height")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(whole_number(1));
   cmd->add_option("--seed", o->config.seed, "Random seed")->capture_default_str();
   cmd->add_option("-o,--output", o->output, "Ray file to write")->required();
   cmd->add_option("--format", o->format, "irgrid (32 B/ray) or hagrid (24 B/ray)")

@@ -176,10 +176,10 @@ void add_render_command(CLI::App& app) {
                               "view's; 60 with --eye)");
   cmd->add_option("-w,--width", o->width, "Image width")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(whole_number(1));
   cmd->add_option("-h,--height", o->height, "Image height")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(whole_number(1));
   cmd->add_option("--mode", o->mode, "shaded, normal, primid, ao or heatmap")
       ->capture_default_str();
   cmd->add_option("--spp", o->spp, "Ambient-occlusion rays per pixel (mode ao)")

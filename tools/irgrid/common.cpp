@@ -61,6 +61,20 @@ CLI::Validator finite_number(const char* rule, Accepts accepts) {
 
 }  // namespace
 
+CLI::Validator whole_number(std::uint64_t least) {
+  return CLI::Validator(
+      [least](std::string& text) -> std::string {
+        const char* end = text.data() + text.size();
+        std::uint64_t value = 0;
+        const auto [stop, error] = std::from_chars(text.data(), end, value);
+        if (text.empty() || error != std::errc() || stop != end || value < least)
+          return fmt::format("'{}' is not a whole number{}", text,
+                             least == 0 ? " >= 0" : " >= " + std::to_string(least));
+        return {};
+      },
+      "");
+}
+
 void add_structure_options(CLI::App* command, StructureOptions& options) {
   command->add_option("--structure", options.structure,
                       "irregular (default), embree, embree-packets, two-level, uniform or brute");
@@ -123,6 +137,17 @@ void add_structure_options(CLI::App* command, StructureOptions& options) {
       ->add_flag("--compress,!--no-compress", grid.compress,
                  "16-byte cells when they fit (default on)")
       ->group("Grid");
+  command
+      ->add_option_function<std::uint64_t>(
+          "--memory-budget",
+          [&grid](std::uint64_t mib) {
+            if (mib > (std::uint64_t(1) << 40))
+              throw CLI::ValidationError("--memory-budget", "at most 2^40 MiB");
+            grid.memory_budget = mib << 20;
+          },
+          "MiB the grid's construction may use before it coarsens (0: automatic, 1 KiB per "
+          "triangle + 96 MiB, at most half the free memory)")
+      ->group("Grid");
 }
 
 const AcceleratorOptions& environment_options() {
@@ -176,7 +201,17 @@ std::unique_ptr<Accelerator> build_reporting(const Scene& scene,
   progress.done();
   fmt::print(stderr, "built {} on {} in {:.1f} ms\n", to_string(accelerator->structure()),
              to_string(accelerator->backend()), accelerator->build_stats().build_ms);
+  warn_if_budget_limited(*accelerator);
   return accelerator;
+}
+
+void warn_if_budget_limited(const Accelerator& accelerator) {
+  const auto& grid = accelerator.build_stats().grid;
+  if (!grid || !grid->budget_limited) return;
+  fmt::print(stderr,
+             "warning: the grid reached its construction budget of {} MiB and was built with "
+             "coarser cells than asked (traces correctly, more slowly; raise --memory-budget)\n",
+             grid->budget_bytes >> 20);
 }
 
 void trace_with_progress(const Accelerator& accelerator, std::span<const Ray> rays,

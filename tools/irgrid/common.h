@@ -49,6 +49,13 @@ void add_structure_options(CLI::App* command, StructureOptions& options);
 /// Builds a structure, printing what was built and how long it took on stderr.
 std::unique_ptr<Accelerator> build_reporting(const Scene& scene, const StructureOptions& options);
 
+/// A validator for whole-number options: digits only (no sign, so -1 cannot wrap to 2^64 - 1),
+/// at least `least` (0 or 1). Its message names the rule, not the type's range.
+CLI::Validator whole_number(std::uint64_t least);
+
+/// Warns on stderr when the grid's construction budget made it coarser than asked.
+void warn_if_budget_limited(const Accelerator& accelerator);
+
 /// Traces in chunks so a long trace shows progress on a terminal.
 void trace_with_progress(const Accelerator& accelerator, std::span<const Ray> rays,
                          std::span<Hit> hits, Query query, const std::string& label);

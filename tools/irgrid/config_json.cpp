@@ -14,7 +14,9 @@ std::vector<std::pair<const char*, std::uint64_t>> grid_counts(const GridStats& 
           {"top_y", g.top_dims[1]},
           {"top_z", g.top_dims[2]},
           {"depth", g.depth},
-          {"compressed_cells", g.compressed_cells ? 1 : 0}};
+          {"compressed_cells", g.compressed_cells ? 1 : 0},
+          {"budget_bytes", g.budget_bytes},
+          {"budget_limited", g.budget_limited ? 1 : 0}};
 }
 
 std::vector<std::pair<const char*, std::uint64_t>> grid_array_bytes(const GridStats& g) {
@@ -55,7 +57,8 @@ void add_build_stats_json(nlohmann::json& out, Structure structure, const BuildS
                    {"expansion_passes", grid->expansion_passes},
                    {"partial_expansion", grid->partial_expansion},
                    {"skip_empty", grid->skip_empty},
-                   {"compress", grid->compress}};
+                   {"compress", grid->compress},
+                   {"memory_budget", grid->memory_budget}};
   if (structure == Structure::irregular && stats.grid)
     out["lambda2_used"] = stats.grid->lambda2_used;
 }

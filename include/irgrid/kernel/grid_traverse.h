@@ -46,11 +46,15 @@ struct TraversalCounters {
 };
 
 /// The ray's parameter interval inside the grid box, clipped to [tmin, tmax]; empty when
-/// t_enter > t_leave.
+/// t_enter > t_leave, and for rays that are not finite (ray_is_finite).
 IRGRID_HD inline void clip_to_grid(const GridInfo& info, const Ray& ray, const Vec3<float>& inv_dir,
                                    float& t_enter, float& t_leave) {
   t_enter = ray.tmin;
   t_leave = ray.tmax;
+  if (!ray_is_finite(ray)) {
+    t_enter = 1.f, t_leave = 0.f;
+    return;
+  }
   for (int a = 0; a < 3; ++a) {
     if (ray.dir[a] == 0.f) {
       if (ray.org[a] < info.box_lo[a] || ray.org[a] > info.box_hi[a]) t_enter = 1.f, t_leave = 0.f;

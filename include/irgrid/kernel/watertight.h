@@ -42,6 +42,17 @@ IRGRID_HD inline T minus_product(T a, T b, T c) {
 #endif
 }
 
+/// Whether a ray's origin and direction are finite. A ray with an infinite or NaN component has
+/// no well-defined points, and every structure misses it: the watertight test would otherwise
+/// meet every triangle ahead at t = 0 (an infinite direction shears to z' = 0), and Embree
+/// asserts on it.
+IRGRID_HD inline bool ray_is_finite(const Ray& ray) {
+  bool finite = true;
+  for (int a = 0; a < 3; ++a)  // x - x is 0 for finite x, NaN for infinities and NaN
+    finite &= ray.org[a] - ray.org[a] == 0.f && ray.dir[a] - ray.dir[a] == 0.f;
+  return finite;
+}
+
 /// Per-ray constants of the watertight test, as in the paper: the axis kz where the direction
 /// is largest, kx and ky the other two (swapped to keep the winding), and the shear
 /// x' = x[kx] - sx x[kz], y' = x[ky] - sy x[kz], z' = sz x[kz]. The origin is stored permuted,

@@ -100,6 +100,52 @@ class PhaseClock {
   std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
 };
 
+/// Splits of octree nodes holding more references than this must separate them
+/// (OctreeRule::depth_split_pays); irregular grids only. Nodes this full are rare in real
+/// scenes: with 2048 the shared scenes' grids stay bit for bit those of the paper's rules; with
+/// 64, Conference lost 8.5% of its cells (and overlap:30000 built in a third of the time,
+/// without reaching the budget). Below it, the construction budget bounds what a runaway
+/// octree can take.
+inline constexpr std::uint32_t kUnpaidSplitRefs = 2048;
+
+/// The top-level references of a planned top grid, counted per triangle (count_top_level_refs).
+template <typename Exec>
+struct TopLevelCounts {
+  typename Exec::template Buffer<std::uint32_t> offsets;
+  std::uint64_t total = 0;
+};
+
+/// Plans the top grid (grid.info) and counts its (top cell, triangle) pairs. When the pairs
+/// would pass grid.budget_bytes (or the 30-bit limit), the top grid is planned again with λ1
+/// divided by 8 (half the cells per axis) until they fit or it is one cell, and
+/// grid.budget_limited is set: overlapping triangles (a stack of copies, or large ones crossing
+/// the scene) land in most top cells, and a finer grid would not separate them.
+template <typename Exec>
+TopLevelCounts<Exec> plan_top_grid_within_budget(Exec& exec, GridArrays<Exec>& grid,
+                                                 const BuildConfig& config) {
+  const auto count = std::uint32_t(grid.triangles.size());
+  const TriangleVertices* triangles = grid.triangles.data();
+  BuildConfig top = config;
+  auto offsets = exec.template allocate<std::uint32_t>(std::size_t(count) + 1);
+  const auto fits = [&](std::uint64_t refs, std::uint64_t slack) {
+    return refs <= slack * kMaxEntryTarget &&
+           top_level_pair_bytes(refs) <= slack * grid.budget_bytes;
+  };
+  for (;;) {
+    grid.info = plan_top_grid(exec, triangles, count, top);
+    const bool one_cell =
+        grid.info.top_dims[0] == 1 && grid.info.top_dims[1] == 1 && grid.info.top_dims[2] == 1;
+    // The exact count costs a triangle/box test per top cell of each triangle's box: it is
+    // made only where that bound is within 8 budgets, so that its work stays within them.
+    if (one_cell || fits(top_level_refs_bound(exec, triangles, grid.info), 8)) {
+      const std::uint64_t total = count_top_level_refs(exec, triangles, grid.info, offsets.data());
+      if (one_cell || fits(total, 1)) return {std::move(offsets), total};
+    }
+    top.lambda1 /= 8;
+    grid.budget_limited = true;
+  }
+}
+
 /// The initial grid (paper §3.1) over the triangles already gathered into grid.triangles: top
 /// grid, octrees, one cell array with sorted reference lists, the voxel map in octree form.
 /// Returns the deepest λ2 depth (below it, only count splits refine the grid).
@@ -112,32 +158,45 @@ std::int32_t build_initial_grid(Exec& exec, GridArrays<Exec>& grid, const BuildC
   const auto count = std::uint32_t(grid.triangles.size());
   if (count == 0) throw Error(ErrorCode::invalid_argument, "a grid needs at least one triangle");
   const TriangleVertices* triangles = grid.triangles.data();
-  grid.info = plan_top_grid(exec, triangles, count, config);
+  grid.budget_bytes = construction_budget(config, count, exec.memory_budget());
+  grid.budget_limited = false;
+  auto counts = plan_top_grid_within_budget(exec, grid, config);
   clock.lap(BuildPhase::top_grid);
-  auto pairs = emit_top_level_refs(exec, triangles, grid.info);
+  auto pairs =
+      emit_top_level_refs(exec, triangles, grid.info, std::move(counts.offsets), counts.total);
   grid.top_level_refs = pairs.count;
   clock.lap(BuildPhase::top_level_references);
   const OctreeDepths<Exec> depths = plan_octree_depths(exec, grid.info, pairs, config);
+  const bool irregular = config.shape == BuildConfig::Shape::irregular;
   const OctreeRule rule{depths.per_top_cell.data(), config.shape == BuildConfig::Shape::two_level,
-                        config.split_refs, depths.count_split};
+                        config.split_refs, depths.count_split, irregular ? kUnpaidSplitRefs : 0};
   const auto plan_empty_space = [&] {
-    if (config.skip_empty && config.shape == BuildConfig::Shape::irregular) {
+    if (config.skip_empty && irregular) {
       grid.empty_radii = empty_space_radii(exec, grid.info, depths.refs_per_top_cell.data());
       clock.lap(BuildPhase::empty_space);
     }
   };
   if constexpr (Exec::kDepthFirstOctrees) {
     if (depth_first_applies(grid.info)) {
-      auto octrees = build_top_cell_octrees(exec, grid.info, triangles, std::move(pairs),
-                                            depths.refs_per_top_cell.data(), rule);
-      clock.lap(BuildPhase::octree_levels);
-      plan_empty_space();
-      assemble_top_cell_octrees(exec, octrees, grid);
-      clock.lap(BuildPhase::cells_and_references);
-      return depths.deepest_lambda2;
+      try {
+        auto octrees =
+            build_top_cell_octrees(exec, grid.info, triangles, std::move(pairs),
+                                   depths.refs_per_top_cell.data(), rule, grid.budget_bytes);
+        clock.lap(BuildPhase::octree_levels);
+        plan_empty_space();
+        assemble_top_cell_octrees(exec, octrees, grid);
+        clock.lap(BuildPhase::cells_and_references);
+        return depths.deepest_lambda2;
+      } catch (const depth_first_detail::BudgetExceeded&) {
+        // The complete octrees do not fit: the level-by-level build finds the last level that
+        // does, as the CUDA build would. The depth-first build consumed the pairs.
+        pairs = emit_top_level_refs(exec, triangles, grid.info);
+      }
     }
   }
-  auto levels = build_octree_levels(exec, grid.info, triangles, std::move(pairs), rule);
+  auto levels =
+      build_octree_levels(exec, grid.info, triangles, std::move(pairs), rule, grid.budget_bytes);
+  grid.budget_limited |= levels.budget_limited;
   clock.lap(BuildPhase::octree_levels);
   plan_empty_space();
   assemble_grid(exec, levels, grid);

@@ -31,6 +31,10 @@ struct GridArrays {
   std::vector<std::uint32_t> level_offsets;
   /// References of the top grid (one per top cell a triangle overlaps), kept for statistics.
   std::uint32_t top_level_refs = 0;
+  /// The construction budget in bytes (construction_budget), and whether it made the grid
+  /// coarser than its parameters ask: a coarser top grid or octrees cut short.
+  std::uint64_t budget_bytes = 0;
+  bool budget_limited = false;
 };
 
 /// Concatenates per-level buffers into one of `total` elements.

@@ -10,13 +10,16 @@
 
 namespace irgrid {
 
-/// Fills the grid statistics and total bytes of `out` from a built grid's scalars;
-/// empty_radii_bytes is the size of its empty radii (0 without them), peak_build_bytes the
-/// build's transient memory.
-inline void record_grid_statistics(const GridInfo& g, std::uint32_t top_level_refs, bool compressed,
-                                   std::uint64_t empty_radii_bytes, const BuildConfig& config,
-                                   std::uint64_t peak_build_bytes, BuildStats& out) {
+/// Fills the grid statistics and total bytes of `out` from a built grid's arrays (`compressed`:
+/// with 16-byte cells) and the build's transient memory peak_build_bytes.
+template <typename Arrays>
+void record_grid_statistics(const Arrays& grid, bool compressed, const BuildConfig& config,
+                            std::uint64_t peak_build_bytes, BuildStats& out) {
+  const GridInfo& g = grid.info;
+  const std::uint32_t top_level_refs = grid.top_level_refs;
   GridStats s;
+  s.budget_bytes = grid.budget_bytes;
+  s.budget_limited = grid.budget_limited;
   s.top_level_references = top_level_refs;
   s.cells = g.num_cells;
   s.references = g.num_refs;
@@ -33,7 +36,7 @@ inline void record_grid_statistics(const GridInfo& g, std::uint32_t top_level_re
   s.references_bytes = std::uint64_t(g.num_refs) * sizeof(std::uint32_t);
   s.voxel_map_bytes = std::uint64_t(g.num_entries) * sizeof(Entry);
   s.triangles_bytes = std::uint64_t(g.num_triangles) * sizeof(TriangleVertices);
-  s.empty_radii_bytes = empty_radii_bytes;
+  s.empty_radii_bytes = grid.empty_radii.size();
   s.peak_build_bytes = peak_build_bytes;
   out.memory_bytes = s.cells_bytes + s.references_bytes + s.voxel_map_bytes + s.triangles_bytes +
                      s.empty_radii_bytes;

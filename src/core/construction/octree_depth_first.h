@@ -59,13 +59,18 @@ struct TopCellOctrees {
 
 namespace depth_first_detail {
 
-/// Entries, cells and references all top cells have built so far, for the limits: a runaway
-/// octree (a huge lambda2) fails once the totals pass the 30-bit limits or the build would
-/// outgrow the machine's memory (`memory_bytes`, 0: unknown), not when the system kills it.
+/// Entries, cells and references all top cells have built so far, for the budget: a runaway
+/// octree (a huge lambda2, overlapping triangles) stops as soon as the totals pass `budget`
+/// (octree_fits_budget), long before it would outgrow the machine.
 struct RunningTotals {
   std::atomic<std::uint64_t> entries{0}, cells{0}, refs{0};
-  std::uint64_t memory_bytes = 0;
+  std::uint64_t budget = 0;
 };
+
+/// Thrown by the builders when the running totals pass the budget. The totals only grow, so
+/// this happens exactly when the complete octrees would not fit; build_initial_grid then
+/// builds level by level, which stops at the last level that fits.
+struct BudgetExceeded {};
 
 /// Builds the octree of one top cell into a chunk (the subdivision rule of plan_level).
 template <typename Exec>
@@ -102,13 +107,15 @@ class TopCellBuilder {
       if (masks_.size() < mask_begin + count) masks_.resize(2 * (mask_begin + count));
       masks_top_ = mask_begin + count;
       std::uint64_t child_refs = 0;
+      std::uint32_t folded = kMasksFolded;
       for (std::uint32_t k = 0; k < count; ++k) {
         const std::uint32_t mask =
             child_overlap_mask(split_node, triangles_[lists_[list_begin + k]]);
         masks_[mask_begin + k] = std::uint8_t(mask);
         child_refs += popcount8(mask);
+        folded &= fold_mask(mask);
       }
-      if (!split) split = rule_.count_split_separates(count, std::uint32_t(child_refs));
+      split = rule_.decide(level, top_depth_, count, child_refs, masks_differ(folded)) != kNoSplit;
     }
     auto& entries = chunk_.levels[std::size_t(level)];
     if (!split) {
@@ -156,16 +163,14 @@ class TopCellBuilder {
     if (lists_.size() < size) lists_.resize(2 * size);
   }
 
-  /// Adds what this builder made since the last call to the shared totals and checks the
-  /// limits (entries, references, memory) with the level-by-level build's checks.
+  /// Adds what this builder made since the last call to the shared totals and checks them
+  /// against the budget, as the level-by-level build does.
   void flush_totals() {
     const std::uint64_t entries = totals_.entries += pending_entries_;
     const std::uint64_t cells = totals_.cells += pending_cells_;
     const std::uint64_t refs = totals_.refs += pending_refs_;
     pending_entries_ = pending_cells_ = pending_refs_ = 0;
-    check_entry_count(entries);
-    check_reference_count(refs, "octree references");
-    check_octree_memory(totals_.memory_bytes, entries, cells, refs);
+    if (!octree_fits_budget(totals_.budget, entries, cells, refs)) throw BudgetExceeded{};
   }
 
   static constexpr std::uint64_t kFlushEvery = 4096;
@@ -189,12 +194,13 @@ class TopCellBuilder {
 
 /// Builds the octree of every top cell (pass 1 of 2). `pairs` are the top-level (top cell,
 /// triangle) pairs, `refs_per_top` their count per top cell. Requires an executor whose buffers
-/// grow on the host (kDepthFirstOctrees) and depth_first_applies(info).
+/// grow on the host (kDepthFirstOctrees) and depth_first_applies(info). Throws BudgetExceeded
+/// when the octrees would not fit `budget` (construction_budget).
 template <typename Exec>
 TopCellOctrees<Exec> build_top_cell_octrees(Exec& exec, const GridInfo& info,
                                             const TriangleVertices* triangles, RefPairs<Exec> pairs,
                                             const std::uint32_t* refs_per_top,
-                                            const OctreeRule& rule) {
+                                            const OctreeRule& rule, std::uint64_t budget) {
   TopCellOctrees<Exec> out;
   out.top_cells = std::uint32_t(info.top_dims[0]) * std::uint32_t(info.top_dims[1]) *
                   std::uint32_t(info.top_dims[2]);
@@ -211,7 +217,8 @@ TopCellOctrees<Exec> build_top_cell_octrees(Exec& exec, const GridInfo& info,
   out.cells_per_top.resize(n);
   out.refs_per_top.resize(n);
   depth_first_detail::RunningTotals totals;
-  totals.memory_bytes = exec.memory_budget();
+  totals.budget = budget;
+  totals.entries = n;  // the top level's entries, counted as the level-by-level build does
   ChunkOctrees<Exec>* chunks = out.chunks.data();
   std::uint32_t *cells_per_top = out.cells_per_top.data(), *refs_out = out.refs_per_top.data();
   const std::uint32_t levels = out.levels_per_top;

@@ -24,6 +24,8 @@ struct OctreeLevels {
   std::vector<typename Exec::template Buffer<Cell>> cells;     ///< leaves of each level
   std::vector<RefPairs<Exec>> pairs;                           ///< (cell, triangle) of each level
   std::uint32_t num_entries = 0, num_cells = 0, num_refs = 0;
+  /// The construction budget stopped the octrees at the last level that fit it.
+  bool budget_limited = false;
 };
 
 /// The nodes of one octree level: their lower voxel and their top cell.
@@ -104,23 +106,6 @@ IRGRID_HD inline std::uint32_t child_overlap_mask(const GridInfo& info, Voxel lo
   return child_overlap_mask(node_split(info, lo, half), t);
 }
 
-/// Throws Error{out_of_memory} when a build whose initial grid holds `entries` map entries,
-/// `cells` cells and `refs` references would outgrow `memory_bytes` (check_memory_budget). Its
-/// peak holds those arrays about 3 times: the octrees' own buffers and the grid's arrays they
-/// become, then the old and the new arrays of a merge sweep. Octree builds check as they grow,
-/// so that a runaway octree (a huge lambda2) stops with an error, not killed by the system.
-inline void check_octree_memory(std::uint64_t memory_bytes, std::uint64_t entries,
-                                std::uint64_t cells, std::uint64_t refs) {
-  check_memory_budget(
-      memory_bytes,
-      3 * (entries * sizeof(Entry) + cells * sizeof(Cell) + refs * sizeof(std::uint32_t)),
-      [&] {
-        return "octrees: " + std::to_string(cells) + " cells, " + std::to_string(entries) +
-               " map entries and " + std::to_string(refs) + " references so far; the build";
-      },
-      "lower lambda2 or min_cells");
-}
-
 /// Number of set bits of an 8-bit mask, without a library call (x86-64 without -mpopcnt turns
 /// std::popcount into one).
 IRGRID_HD inline std::uint32_t popcount8(std::uint32_t x) {
@@ -144,14 +129,36 @@ typename Exec::template Buffer<std::uint32_t> select_indices(Exec& exec, const c
   return out;
 }
 
-/// When an octree node splits: always below its top cell's depth while it holds references (or
-/// even empty, for the two-level grid); and, below count_split_depth, while it holds more than
-/// split_refs references and the split separates them (see count_split_separates).
+inline constexpr std::uint8_t kNoSplit = 0, kSplitByDepth = 1, kSplitByCount = 2;
+
+/// Whether a split sets any of a node's triangles apart from another, or zooms in on them all,
+/// from the children masks of all of them folded with atomic_and (cheap on both executors):
+/// start from kMasksFolded, fold in fold_mask(mask) per triangle. The high byte keeps the AND
+/// of the masks, the low byte the AND of their complements (the complement of their OR). It is
+/// false only when every triangle lands in the same two or more children (copies of one
+/// triangle, or triangles crossing the node together), where splitting only carves away empty
+/// space.
+inline constexpr std::uint32_t kMasksFolded = 0xFFFFu;
+IRGRID_HD inline std::uint32_t fold_mask(std::uint32_t mask) {
+  return 0xFFFF0000u | (mask << 8) | (~mask & 0xFFu);
+}
+IRGRID_HD inline bool masks_differ(std::uint32_t folded) {
+  const std::uint32_t all = (folded >> 8) & 0xFFu, any = ~folded & 0xFFu;
+  return all != any || (any & (any - 1)) == 0;
+}
+
+/// When an octree node splits: below its top cell's depth while it holds references (or even
+/// empty, for the two-level grid) and the split pays (depth_split_pays); and, below
+/// count_split_depth, while it holds more than split_refs references and the split separates
+/// them (see count_split_separates).
 struct OctreeRule {
   const std::int32_t* depths;  ///< per top cell
   bool split_empty;
   std::uint32_t split_refs;
   std::int32_t count_split_depth;
+  /// Splits of nodes holding more references than this must pay (depth_split_pays);
+  /// 0: every split the rules above allow goes ahead (the baselines, as published).
+  std::uint32_t unpaid_refs;
 
   IRGRID_HD bool splits_by_depth(std::int32_t level, std::int32_t top_depth,
                                  std::uint32_t refs) const {
@@ -159,6 +166,10 @@ struct OctreeRule {
   }
   IRGRID_HD bool count_candidate(std::int32_t level, std::uint32_t refs) const {
     return refs > split_refs && level < count_split_depth;
+  }
+  /// Whether the node's triangles are tested against its children before it is decided.
+  IRGRID_HD bool candidate(std::int32_t level, std::int32_t top_depth, std::uint32_t refs) const {
+    return splits_by_depth(level, top_depth, refs) || count_candidate(level, refs);
   }
   /// A count split must separate the node's triangles: the children together may hold at most
   /// twice its references. Triangles larger than the children land in several of them, and
@@ -170,8 +181,32 @@ struct OctreeRule {
   /// (88 tests per view-0 primary ray); at 2 times it takes 45, for 25% more references on
   /// Conference (+8% memory) and 2% more on Crown; with no bound, 39 tests and 75% more
   /// references on Conference.
-  IRGRID_HD bool count_split_separates(std::uint32_t refs, std::uint32_t child_refs) const {
-    return std::uint64_t(child_refs) <= std::uint64_t(refs) * 2;
+  IRGRID_HD bool count_split_separates(std::uint32_t refs, std::uint64_t child_refs) const {
+    return child_refs <= std::uint64_t(refs) * 2;
+  }
+  /// A depth split of a node holding many references (more than unpaid_refs) must separate
+  /// them as a count split must (count_split_separates) and set some apart from the others
+  /// (masks_differ). Triangles larger than the node land in about 4 children each, so where
+  /// they dominate, splitting multiplies references level after level: 30,000 triangles
+  /// crossing a box took 748 million references and 8 GB (the surface area heuristic, which
+  /// still sees a small gain at 3.5 times the references, would not stop them). Copies of one
+  /// triangle land in the same children, and splitting them only carves away empty space at
+  /// 100,000 triangle tests a node. Fuller nodes in real scenes zoom in on a dense object and
+  /// pass both tests.
+  IRGRID_HD bool depth_split_pays(std::uint32_t refs, std::uint64_t child_refs, bool differ) const {
+    return unpaid_refs == 0 || refs <= unpaid_refs ||
+           (differ && count_split_separates(refs, child_refs));
+  }
+  /// How a candidate node holding `refs` references, `child_refs` in its children, splits;
+  /// `differ`: masks_differ of their masks.
+  IRGRID_HD std::uint8_t decide(std::int32_t level, std::int32_t top_depth, std::uint32_t refs,
+                                std::uint64_t child_refs, bool differ) const {
+    if (splits_by_depth(level, top_depth, refs))
+      return depth_split_pays(refs, child_refs, differ) ? kSplitByDepth : kNoSplit;
+    return count_candidate(level, refs) && (differ || unpaid_refs == 0 || refs <= unpaid_refs) &&
+                   count_split_separates(refs, child_refs)
+               ? kSplitByCount
+               : kNoSplit;
   }
 };
 
@@ -182,29 +217,46 @@ struct LevelPlan {
   typename Exec::template Buffer<std::uint32_t>
       leaf_index;                                      ///< leaf rank among this level's leaves
   typename Exec::template Buffer<std::uint8_t> split;  ///< kNoSplit, kSplitByDepth or ...ByCount
-  /// Per pair, its children mask, computed for the pairs of count candidates only.
+  /// Per pair, its children mask, computed for the pairs of candidate nodes only.
   typename Exec::template Buffer<std::uint8_t> pair_masks;
+  /// Per node, its triangles' masks folded (masks_differ).
+  typename Exec::template Buffer<std::uint32_t> folded;
   std::uint32_t children = 0, leaves = 0;
+  bool budget_stop = false;  ///< no node splits: the next level would pass the budget
 };
 
-inline constexpr std::uint8_t kNoSplit = 0, kSplitByDepth = 1, kSplitByCount = 2;
+/// The sum of values[i] (1 where values is null) over the nodes i < n that split.
+template <typename Exec>
+std::uint64_t sum_where_split(Exec& exec, const char* name, const std::uint8_t* split,
+                              const std::uint32_t* values, std::uint32_t n) {
+  return exec.transform_reduce(
+      name, n, std::uint64_t(0), [] IRGRID_HD(std::uint64_t a, std::uint64_t b) { return a + b; },
+      [=] IRGRID_HD(std::size_t i) {
+        return split[i] == kNoSplit ? std::uint64_t(0) : values ? std::uint64_t(values[i]) : 1;
+      });
+}
 
+/// Decides which nodes of a level split. `built` holds the levels above; when the octrees cut
+/// after the next level would pass `budget` (octree_fits_budget), no node splits.
 template <typename Exec>
 LevelPlan<Exec> plan_level(Exec& exec, const GridInfo& info, const TriangleVertices* triangles,
                            const LevelNodes<Exec>& nodes, const RefPairs<Exec>& pairs,
-                           const OctreeRule& rule, std::int32_t level) {
+                           const OctreeRule& rule, std::int32_t level,
+                           const OctreeLevels<Exec>& built, std::uint64_t budget) {
   const std::uint32_t n = nodes.count;
-  const bool count_splits = level < rule.count_split_depth;
-  LevelPlan<Exec> plan{exec.template allocate<std::uint32_t>(n),
-                       exec.template allocate<std::uint32_t>(n),
-                       exec.template allocate<std::uint8_t>(n),
-                       exec.template allocate<std::uint8_t>(count_splits ? pairs.count : 0)};
+  LevelPlan<Exec> plan{
+      exec.template allocate<std::uint32_t>(n), exec.template allocate<std::uint32_t>(n),
+      exec.template allocate<std::uint8_t>(n), exec.template allocate<std::uint8_t>(pairs.count),
+      exec.template allocate<std::uint32_t>(n)};
   std::uint32_t *child_base = plan.child_base.data(), *leaf_index = plan.leaf_index.data();
   std::uint8_t *split = plan.split.data(), *pair_masks = plan.pair_masks.data();
-  // leaf_index holds, until the scan, the references the children of a count candidate would get.
+  std::uint32_t* folded = plan.folded.data();
+  // Until the scans, child_base holds each node's references and leaf_index the references its
+  // children would get.
   exec.for_each("level clear", n, [=] IRGRID_HD(std::size_t i) {
     child_base[i] = 0;
     leaf_index[i] = 0;
+    folded[i] = kMasksFolded;
   });
   const std::uint32_t *pair_node = pairs.cell.data(), *pair_tri = pairs.tri.data();
   exec.for_each("level count", pairs.count,
@@ -212,34 +264,42 @@ LevelPlan<Exec> plan_level(Exec& exec, const GridInfo& info, const TriangleVerti
   const std::uint32_t* top = nodes.top.data();
   const Voxel* lo = nodes.lo.data();
   const OctreeRule r = rule;
-  if (count_splits) {
+  if (level < info.shift) {  // nodes of the deepest level never split
     const std::int32_t half = std::int32_t(1) << (info.shift - level - 1);
     exec.for_each("level child counts", pairs.count, [=] IRGRID_HD(std::size_t i) {
       const std::uint32_t node = pair_node[i];
-      if (r.splits_by_depth(level, r.depths[top[node]], child_base[node]) ||
-          !r.count_candidate(level, child_base[node]))
-        return;
+      if (!r.candidate(level, r.depths[top[node]], child_base[node])) return;
       const std::uint32_t mask = child_overlap_mask(info, lo[node], half, triangles[pair_tri[i]]);
       pair_masks[i] = std::uint8_t(mask);
       atomic_add(&leaf_index[node], popcount8(mask));
+      atomic_and(&folded[node], fold_mask(mask));
     });
   }
   exec.for_each("level split", n, [=] IRGRID_HD(std::size_t i) {
     const std::uint32_t refs = child_base[i];
-    split[i] = r.splits_by_depth(level, r.depths[top[i]], refs) ? kSplitByDepth
-               : r.count_candidate(level, refs) && r.count_split_separates(refs, leaf_index[i])
-                   ? kSplitByCount
+    split[i] = r.candidate(level, r.depths[top[i]], refs)
+                   ? r.decide(level, r.depths[top[i]], refs, leaf_index[i], masks_differ(folded[i]))
                    : kNoSplit;
+  });
+  const std::uint64_t splits = sum_where_split(exec, "level splits", split, nullptr, n);
+  if (splits > 0) {
+    const std::uint64_t split_refs =
+        sum_where_split(exec, "level split refs", split, child_base, n);
+    const std::uint64_t child_refs =
+        sum_where_split(exec, "level child refs", split, leaf_index, n);
+    if (!octree_fits_budget(
+            budget, std::uint64_t(built.num_entries) + n + 8 * splits,
+            std::uint64_t(built.num_cells) + (n - splits) + 8 * splits,
+            std::uint64_t(built.num_refs) + (pairs.count - split_refs) + child_refs)) {
+      plan.budget_stop = true;
+      exec.for_each("level budget stop", n, [=] IRGRID_HD(std::size_t i) { split[i] = kNoSplit; });
+    }
+  }
+  exec.for_each("level offsets", n, [=] IRGRID_HD(std::size_t i) {
     const bool splits = split[i] != kNoSplit;
     child_base[i] = splits ? 8 : 0;
     leaf_index[i] = splits ? 0 : 1;
   });
-  const std::uint64_t children = wide_sum(exec, "level children", child_base, n);
-  if (children > kMaxEntryTarget)
-    throw Error(
-        ErrorCode::limit_exceeded,
-        "voxel map: " + std::to_string(children) +
-            " octree nodes exceed the limit of 2^30 - 1 entries (lower lambda2 or min_cells)");
   plan.children = exec.exclusive_scan("level children", child_base, child_base, n);
   plan.leaves = exec.exclusive_scan("level leaves", leaf_index, leaf_index, n);
   return plan;
@@ -297,13 +357,13 @@ void keep_leaf_pairs(Exec& exec, const RefPairs<Exec>& pairs, const LevelPlan<Ex
   out.pairs.push_back(std::move(leaf_pairs));
 }
 
-/// The children of the split nodes, and their (child, triangle) pairs; `built` holds the levels
-/// above, for the memory check (check_octree_memory).
+/// The children of the split nodes, and their (child, triangle) pairs (the plan's masks).
 template <typename Exec>
-std::pair<LevelNodes<Exec>, RefPairs<Exec>> split_level(
-    Exec& exec, const GridInfo& info, const TriangleVertices* triangles,
-    const LevelNodes<Exec>& nodes, const RefPairs<Exec>& pairs, const LevelPlan<Exec>& plan,
-    const OctreeLevels<Exec>& built, std::int32_t level) {
+std::pair<LevelNodes<Exec>, RefPairs<Exec>> split_level(Exec& exec, const GridInfo& info,
+                                                        const LevelNodes<Exec>& nodes,
+                                                        const RefPairs<Exec>& pairs,
+                                                        const LevelPlan<Exec>& plan,
+                                                        std::int32_t level) {
   const std::int32_t half = std::int32_t(1) << (info.shift - level - 1);
   LevelNodes<Exec> children{exec.template allocate<Voxel>(plan.children),
                             exec.template allocate<std::uint32_t>(plan.children), plan.children};
@@ -330,18 +390,12 @@ std::pair<LevelNodes<Exec>, RefPairs<Exec>> split_level(
   auto offsets = exec.template allocate<std::uint32_t>(selected + 1);
   std::uint32_t *d_masks = masks.data(), *d_offsets = offsets.data();
   const std::uint32_t* d_picked = picked.data();
-  const std::uint8_t* pair_masks = plan.pair_masks.data();  // count splits: computed in the plan
+  const std::uint8_t* pair_masks = plan.pair_masks.data();
   exec.for_each("split masks", selected, [=] IRGRID_HD(std::size_t k) {
-    const std::uint32_t i = d_picked[k];
-    d_masks[k] = split[node[i]] == kSplitByCount
-                     ? pair_masks[i]
-                     : child_overlap_mask(info, lo[node[i]], half, triangles[tri[i]]);
+    d_masks[k] = pair_masks[d_picked[k]];
     d_offsets[k] = popcount8(d_masks[k]);
   });
-  const std::uint64_t child_refs = wide_sum(exec, "split offsets", d_offsets, selected);
-  check_reference_count(child_refs, "octree references");
-  check_octree_memory(exec.memory_budget(), std::uint64_t(built.num_entries) + plan.children,
-                      std::uint64_t(built.num_cells) + plan.children, built.num_refs + child_refs);
+  // The plan checked the total against the budget, whose bound includes the 30-bit limit.
   const std::uint32_t total = exec.exclusive_scan("split offsets", d_offsets, d_offsets, selected);
   RefPairs<Exec> child_pairs{exec.template allocate<std::uint32_t>(total),
                              exec.template allocate<std::uint32_t>(total), total};
@@ -355,23 +409,25 @@ std::pair<LevelNodes<Exec>, RefPairs<Exec>> split_level(
   return {std::move(children), std::move(child_pairs)};
 }
 
-/// Runs the octree subdivision from the top level down, at most to depth info.shift.
+/// Runs the octree subdivision from the top level down, at most to depth info.shift, and stops
+/// at the last level whose octrees fit `budget` (construction_budget).
 template <typename Exec>
 OctreeLevels<Exec> build_octree_levels(Exec& exec, const GridInfo& info,
                                        const TriangleVertices* triangles, RefPairs<Exec> pairs,
-                                       const OctreeRule& rule) {
+                                       const OctreeRule& rule, std::uint64_t budget) {
   OctreeLevels<Exec> out;
   LevelNodes<Exec> nodes = top_level_nodes(exec, info);
   for (std::int32_t level = 0;; ++level) {
-    const LevelPlan<Exec> plan = plan_level(exec, info, triangles, nodes, pairs, rule, level);
+    const LevelPlan<Exec> plan =
+        plan_level(exec, info, triangles, nodes, pairs, rule, level, out, budget);
+    out.budget_limited |= plan.budget_stop;
     const std::uint32_t first_cell = out.num_cells;
     emit_level_entries_and_cells(exec, info, nodes, plan, level, out);
     keep_leaf_pairs(exec, pairs, plan, first_cell, out);
     if (plan.children == 0) break;
-    auto next = split_level(exec, info, triangles, nodes, pairs, plan, out, level);
+    auto next = split_level(exec, info, nodes, pairs, plan, level);
     nodes = std::move(next.first);
     pairs = std::move(next.second);
-    check_entry_count(std::uint64_t(out.num_entries) + nodes.count);
   }
   return out;
 }

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdint>
 #include <string>
+#include <utility>
 
 #include "core/construction/top_grid.h"
 #include "core/triangle_box.h"
@@ -24,12 +25,11 @@ struct RefPairs {
   std::uint32_t count = 0;
 };
 
-/// Calls visit(top cell index) for every top cell the triangle overlaps (padded exact test).
-template <typename Visit>
-IRGRID_HD void for_each_top_cell_overlapped(const GridInfo& info, const Vec3<float>& top_size,
-                                            const TriangleVertices& t, Visit&& visit) {
+/// The top cells [lo, hi] (inclusive, per axis) that the triangle's padded box overlaps.
+IRGRID_HD inline void top_cells_of_box(const GridInfo& info, const Vec3<float>& top_size,
+                                       const TriangleVertices& t, std::int32_t (&lo)[3],
+                                       std::int32_t (&hi)[3]) {
   const BoxF box = triangle_box(t);
-  std::int32_t lo[3], hi[3];
   for (int a = 0; a < 3; ++a) {
     const float inv = 1.0f / top_size[a], last = float(info.top_dims[a] - 1);
     lo[a] = std::int32_t(
@@ -37,6 +37,14 @@ IRGRID_HD void for_each_top_cell_overlapped(const GridInfo& info, const Vec3<flo
     hi[a] = std::int32_t(
         min_fast(max_fast(floorf((box.hi[a] + info.padding - info.box_lo[a]) * inv), 0.f), last));
   }
+}
+
+/// Calls visit(top cell index) for every top cell the triangle overlaps (padded exact test).
+template <typename Visit>
+IRGRID_HD void for_each_top_cell_overlapped(const GridInfo& info, const Vec3<float>& top_size,
+                                            const TriangleVertices& t, Visit&& visit) {
+  std::int32_t lo[3], hi[3];
+  top_cells_of_box(info, top_size, t, lo, hi);
   for (std::int32_t z = lo[2]; z <= hi[2]; ++z)
     for (std::int32_t y = lo[1]; y <= hi[1]; ++y)
       for (std::int32_t x = lo[0]; x <= hi[0]; ++x) {
@@ -85,24 +93,51 @@ inline void check_entry_count(std::uint64_t count) {
                     " entries exceed the limit of 2^30 - 1 (lower lambda2 or min_cells)");
 }
 
-/// Emits the (top cell, triangle) pairs, triangle-major (so each cell's triangles ascend).
+/// An upper bound of the top-level references, in O(triangles): the top cells of each
+/// triangle's box. It tells a top grid far too fine for the budget before the exact count,
+/// which tests every one of those cells, is paid for.
 template <typename Exec>
-RefPairs<Exec> emit_top_level_refs(Exec& exec, const TriangleVertices* triangles,
+std::uint64_t top_level_refs_bound(Exec& exec, const TriangleVertices* triangles,
                                    const GridInfo& info) {
-  const std::uint32_t n = info.num_triangles;
   const Vec3<float> size = top_cell_size(info);
-  auto offsets = exec.template allocate<std::uint32_t>(n + 1);
-  std::uint32_t* d_offsets = offsets.data();
-  exec.for_each("top-level count", n, [=] IRGRID_HD(std::size_t i) {
+  return exec.transform_reduce(
+      "top-level bound", info.num_triangles, std::uint64_t(0),
+      [] IRGRID_HD(std::uint64_t a, std::uint64_t b) { return a + b; },
+      [=] IRGRID_HD(std::size_t i) {
+        std::int32_t lo[3], hi[3];
+        top_cells_of_box(info, size, triangles[i], lo, hi);
+        return std::uint64_t(hi[0] - lo[0] + 1) * std::uint64_t(hi[1] - lo[1] + 1) *
+               std::uint64_t(hi[2] - lo[2] + 1);
+      });
+}
+
+/// Counts the top cells each triangle overlaps into offsets[0..n) (the buffer holds n + 1) and
+/// returns their total, for the budget to be checked before the pairs are made.
+template <typename Exec>
+std::uint64_t count_top_level_refs(Exec& exec, const TriangleVertices* triangles,
+                                   const GridInfo& info, std::uint32_t* d_offsets) {
+  const Vec3<float> size = top_cell_size(info);
+  exec.for_each("top-level count", info.num_triangles, [=] IRGRID_HD(std::size_t i) {
     std::uint32_t count = 0;
     for_each_top_cell_overlapped(info, size, triangles[i], [&](std::uint32_t) { ++count; });
     d_offsets[i] = count;
   });
-  const std::uint64_t total = wide_sum(exec, "top-level total", d_offsets, n);
+  return wide_sum(exec, "top-level total", d_offsets, info.num_triangles);
+}
+
+/// Emits the (top cell, triangle) pairs, triangle-major (so each cell's triangles ascend), from
+/// the counts count_top_level_refs left in `offsets` (their `total`).
+template <typename Exec>
+RefPairs<Exec> emit_top_level_refs(Exec& exec, const TriangleVertices* triangles,
+                                   const GridInfo& info,
+                                   typename Exec::template Buffer<std::uint32_t> offsets,
+                                   std::uint64_t total) {
+  const std::uint32_t n = info.num_triangles;
+  const Vec3<float> size = top_cell_size(info);
+  std::uint32_t* d_offsets = offsets.data();
   check_reference_count(total, "top-level references");
-  // The pairs (8 bytes each), and as much again while the octrees sort them into top cells.
   check_memory_budget(
-      exec.memory_budget(), total * 16,
+      exec.memory_budget(), top_level_pair_bytes(total),
       [&] { return std::to_string(total) + " top-level references"; }, "lower lambda1");
   exec.exclusive_scan("top-level offsets", d_offsets, d_offsets, n);
   RefPairs<Exec> pairs{exec.template allocate<std::uint32_t>(total),
@@ -117,6 +152,16 @@ RefPairs<Exec> emit_top_level_refs(Exec& exec, const TriangleVertices* triangles
     });
   });
   return pairs;
+}
+
+/// The (top cell, triangle) pairs of `info`'s top grid (count_top_level_refs, then
+/// emit_top_level_refs).
+template <typename Exec>
+RefPairs<Exec> emit_top_level_refs(Exec& exec, const TriangleVertices* triangles,
+                                   const GridInfo& info) {
+  auto offsets = exec.template allocate<std::uint32_t>(std::size_t(info.num_triangles) + 1);
+  const std::uint64_t total = count_top_level_refs(exec, triangles, info, offsets.data());
+  return emit_top_level_refs(exec, triangles, info, std::move(offsets), total);
 }
 
 /// Octree depth of a top cell holding `count` references: Cleary's resolution with λ2 inside

@@ -1,4 +1,5 @@
-// Built-in procedural scenes: cornell, teapot-stadium, soup, hairball, sphere, cube.
+// Built-in procedural scenes: cornell, teapot-stadium, soup, hairball, sphere, cube, and the
+// hostile overlap and stack.
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -288,6 +289,52 @@ Scene make_soup(std::uint64_t count) {
                             std::uint32_t(3 * i + 2)};
     }
   });
+  return scene;
+}
+
+// ---------------------------------------------------------------------------------------------
+// overlap and stack: hostile scenes for the grid's construction budget (docs/robustness.md)
+
+/// N triangles whose corners are drawn uniformly from the unit cube: each crosses most of the
+/// box, so every cell of any grid overlaps a large share of them (foliage cards, hair, CAD
+/// slivers taken to the extreme). Seeded by index, like soup.
+Scene make_overlap(std::uint64_t count) {
+  if (3 * count > max_vertex_count) {
+    throw Error(ErrorCode::limit_exceeded,
+                "builtin overlap:" + std::to_string(count) + " needs more than 2^32 vertices");
+  }
+  Scene scene;
+  scene.vertices.resize(3 * count);
+  scene.triangles.resize(count);
+  tbb::parallel_for(tbb::blocked_range<std::uint64_t>(0, count, 4096), [&](const auto& range) {
+    for (std::uint64_t i = range.begin(); i != range.end(); ++i) {
+      Pcg32 rng;
+      rng.seed(hash64(i), 0x0Fu);
+      for (int k = 0; k < 3; ++k)
+        scene.vertices[3 * i + k] = {rng.next_float(), rng.next_float(), rng.next_float()};
+      scene.triangles[i] = {std::uint32_t(3 * i), std::uint32_t(3 * i + 1),
+                            std::uint32_t(3 * i + 2)};
+    }
+  });
+  return scene;
+}
+
+/// N copies of one slanted triangle, each with its own three vertices: every cell the triangle
+/// crosses lists all N copies however finely it is split.
+Scene make_stack(std::uint64_t count) {
+  if (3 * count > max_vertex_count) {
+    throw Error(ErrorCode::limit_exceeded,
+                "builtin stack:" + std::to_string(count) + " needs more than 2^32 vertices");
+  }
+  Scene scene;
+  scene.vertices.reserve(3 * count);
+  scene.triangles.reserve(count);
+  for (std::uint64_t i = 0; i < count; ++i) {
+    const auto a = add_vertex(scene, {0.0, 0.0, 0.0});
+    const auto b = add_vertex(scene, {1.0, 0.25, 0.5});
+    const auto c = add_vertex(scene, {0.25, 1.0, 0.75});
+    add_triangle(scene, a, b, c);
+  }
   return scene;
 }
 
@@ -631,6 +678,10 @@ constexpr BuiltinScene builtin_scenes[] = {
      "a closed geodesic unit sphere of 20*f^2 >= N triangles, shared vertices (default 1280)",
      make_sphere},
     {"cube", 0, "cube", "a closed cube [-1,1]^3 of 12 triangles with shared vertices", make_cube},
+    {"overlap", 30000, "overlap:N",
+     "N large random triangles, corners anywhere in the unit cube (default 30000): hostile",
+     make_overlap},
+    {"stack", 30000, "stack:N", "N copies of one triangle (default 30000): hostile", make_stack},
 };
 
 std::string known_names() {

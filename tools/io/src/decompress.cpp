@@ -11,6 +11,7 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <string_view>
 
 #include "irgrid/error.h"
 #include "irgrid/io/scene.h"
@@ -37,6 +38,9 @@ struct FileCloser {
 std::string read_raw_file(const std::string& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) throw_io(path, "cannot open: is a directory");
+  // A device or a pipe may never end (/dev/zero read forever); scenes are regular files.
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
+    throw_io(path, "cannot read: not a regular file (a device, pipe or socket)");
   std::unique_ptr<std::FILE, FileCloser> file(std::fopen(path.c_str(), "rb"));
   if (!file) throw_io(path, std::string("cannot open: ") + std::strerror(errno));
   const auto size = std::filesystem::file_size(path, ec);
@@ -55,9 +59,28 @@ std::string read_raw_file(const std::string& path) {
   return data;
 }
 
-// Grows `out` when the decoder filled it; returns the free space.
-std::size_t make_room(std::string& out, std::size_t used) {
-  if (used == out.size()) out.resize(std::max<std::size_t>(out.size() * 2, 1 << 16));
+/// The most a compressed file of `compressed` bytes may inflate to: 64 times its size (the
+/// shared scenes inflate 2 to 17 times), at least 256 MiB, at most 64 GiB. A 3 MB gzip of
+/// newlines once inflated to 3 GB and took 6 GB of memory.
+std::size_t inflate_limit(std::size_t compressed) {
+  constexpr std::size_t kFloor = std::size_t(256) << 20, kCeiling = std::size_t(64) << 30;
+  return std::min(kCeiling,
+                  std::max(kFloor, compressed > kCeiling / 64 ? kCeiling : 64 * compressed));
+}
+
+[[noreturn]] void throw_bomb(const std::string& path, std::size_t compressed) {
+  throw Error(ErrorCode::limit_exceeded,
+              path + ": inflates to more than " + std::to_string(inflate_limit(compressed) >> 20) +
+                  " MiB (64 times its " + std::to_string(compressed) +
+                  " bytes, at least 256 MiB): refused as a likely decompression bomb; "
+                  "decompress it yourself if it is a real scene");
+}
+
+// Grows `out` when the decoder filled it, up to `limit` bytes (then one byte more, so that
+// passing the limit shows); returns the free space.
+std::size_t make_room(std::string& out, std::size_t used, std::size_t limit) {
+  if (used == out.size())
+    out.resize(std::min(std::max<std::size_t>(out.size() * 2, 1 << 16), limit + 1));
   return out.size() - used;
 }
 
@@ -77,7 +100,12 @@ std::size_t inflate_gzip_member(const std::string& path, const std::string& in, 
       z.avail_in = uInt(std::min(in.size() - offset, kZlibChunk));
       offset += z.avail_in;
     }
-    z.avail_out = uInt(std::min(make_room(out, used), kZlibChunk));
+    const std::size_t limit = inflate_limit(in.size());
+    if (used > limit) {
+      inflateEnd(&z);
+      throw_bomb(path, in.size());
+    }
+    z.avail_out = uInt(std::min(make_room(out, used, limit), kZlibChunk));
     z.next_out = reinterpret_cast<Bytef*>(out.data() + used);
     const uInt before = z.avail_out;
     rc = inflate(&z, Z_NO_FLUSH);
@@ -95,7 +123,8 @@ std::size_t inflate_gzip_member(const std::string& path, const std::string& in, 
 }
 
 std::string inflate_gzip(const std::string& path, const std::string& in) {
-  std::string out(std::max<std::size_t>(in.size() * 4, 1 << 16), '\0');
+  std::string out(std::min(std::max<std::size_t>(in.size() * 4, 1 << 16), inflate_limit(in.size())),
+                  '\0');
   std::size_t used = 0;
   std::size_t offset = 0;
   do {  // gzip allows several members back to back; each inflates independently.
@@ -129,12 +158,17 @@ std::string decompress_xz(const std::string& path, const std::string& in) {
   lzma_ret rc =
       lzma_stream_decoder(&xz, std::numeric_limits<std::uint64_t>::max(), LZMA_CONCATENATED);
   if (rc != LZMA_OK) throw_io(path, "cannot initialise liblzma: " + lzma_message(rc));
-  std::string out(std::max<std::size_t>(in.size() * 4, 1 << 16), '\0');
+  const std::size_t limit = inflate_limit(in.size());
+  std::string out(std::min(std::max<std::size_t>(in.size() * 4, 1 << 16), limit), '\0');
   std::size_t used = 0;
   xz.next_in = reinterpret_cast<const std::uint8_t*>(in.data());
   xz.avail_in = in.size();
   while (rc == LZMA_OK) {
-    xz.avail_out = make_room(out, used);
+    if (used > limit) {
+      lzma_end(&xz);
+      throw_bomb(path, in.size());
+    }
+    xz.avail_out = make_room(out, used, limit);
     xz.next_out = reinterpret_cast<std::uint8_t*>(out.data() + used);
     const std::size_t before = xz.avail_out;
     // All input is present, so every call may finish; this also ends concatenated mode.
@@ -153,8 +187,15 @@ std::string decompress_xz(const std::string& path, const std::string& in) {
 
 std::string read_file_decompressed(const std::string& path) {
   std::string raw = read_raw_file(path);
-  if (ends_with_ignoring_case(path, ".gz")) return inflate_gzip(path, raw);
-  if (ends_with_ignoring_case(path, ".xz")) return decompress_xz(path, raw);
+  // By suffix, or by the format's magic bytes when a compressed file lost its suffix (a gzip
+  // file named .obj once printed its raw bytes in the parser's message). A text scene never
+  // starts with these bytes.
+  if (ends_with_ignoring_case(path, ".gz") || raw.starts_with("\x1F\x8B"))
+    return inflate_gzip(path, raw);
+  if (ends_with_ignoring_case(path, ".xz") || raw.starts_with(std::string_view("\xFD"
+                                                                               "7zXZ\0",
+                                                                               6)))
+    return decompress_xz(path, raw);
   return raw;
 }
 

@@ -123,9 +123,28 @@ class ObjPrescan {
   ObjSummary summary_;
 };
 
+/// A token as a message may quote it: at most 40 bytes, other than printable ASCII as \xNN
+/// (a binary file read as OBJ must not print raw bytes to the terminal).
+std::string printable(std::string_view token) {
+  std::string out;
+  for (std::size_t i = 0; i < token.size() && i < 40; ++i) {
+    const auto c = static_cast<unsigned char>(token[i]);
+    if (c >= 0x20 && c < 0x7F) {
+      out += char(c);
+    } else {
+      constexpr char kHex[] = "0123456789abcdef";
+      out += "\\x";
+      out += kHex[c >> 4];
+      out += kHex[c & 15];
+    }
+  }
+  if (token.size() > 40) out += "...";
+  return out;
+}
+
 void ObjPrescan::fail(std::string_view what, std::string_view token) const {
   throw Error(ErrorCode::io, path_ + ": line " + std::to_string(line_) + ": " + std::string(what) +
-                                 " '" + std::string(token) + "'");
+                                 " '" + printable(token) + "'");
 }
 
 double ObjPrescan::parse_coordinate(std::string_view token) const {
@@ -394,11 +413,47 @@ ObjSummary parse_in_parallel(const std::string& path, std::string& text, tinyobj
   return summary;
 }
 
+/// Rewrites what both parsers would misread into what they read alike, in place: a UTF-8 byte
+/// order mark (tinyobjloader took it for part of the first keyword and dropped that vertex,
+/// shifting every face), comments after a statement ("v 1 2 3 # note", rejected before), and
+/// lines continued with a backslash (joined). Comments are blanked first, so a comment that
+/// ends in a backslash does not swallow the next line. Joined lines make messages name the
+/// first line of a statement, counted as if the file had no continuations.
+void normalise_obj_text(std::string& text) {
+  if (text.starts_with("\xEF\xBB\xBF")) text.erase(0, 3);
+  if (text.find_first_of("#\\") == std::string::npos) return;
+  bool in_comment = false;
+  for (char& c : text) {
+    if (c == '\n' || c == '\r')
+      in_comment = false;
+    else if (c == '#')
+      in_comment = true;
+    if (in_comment) c = ' ';
+  }
+  std::size_t out = 0;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    if (text[i] == '\\') {
+      std::size_t next = i + 1;
+      while (next < text.size() && (text[next] == ' ' || text[next] == '\t'))
+        ++next;  // trailing blanks after the backslash
+      if (next < text.size() && (text[next] == '\n' || text[next] == '\r')) {
+        if (text[next] == '\r' && next + 1 < text.size() && text[next + 1] == '\n') ++next;
+        text[out++] = ' ';
+        i = next;
+        continue;
+      }
+    }
+    text[out++] = text[i];
+  }
+  text.resize(out);
+}
+
 }  // namespace
 
 // Reads an OBJ file (optionally .gz/.xz). Invalid triangles are kept; load_scene drops them.
 Scene load_obj_file(const std::string& path) {
   std::string text = read_file_decompressed(path);
+  normalise_obj_text(text);
   Scene scene;
   ObjSummary summary;
   {  // tinyobjloader's arrays go out of scope once copied

@@ -472,11 +472,13 @@ void PlyBodyReader::read_faces(const PlyElement& element, Cursor& cursor, ReadCo
       face.clear();
       for (std::uint64_t i = 0; i < count; ++i) {
         const double index = cursor.number(property.type);
-        if (!(index >= 0 && index < double(declared_vertices)) && first_bad_face < 0)
+        // A float list may hold 2.5: no vertex, not vertex 2.
+        const bool whole = index == std::floor(index);
+        if (!(whole && index >= 0 && index < double(declared_vertices)) && first_bad_face < 0)
           first_bad_face = std::int64_t(context.record), first_bad_index = index;
-        // Negative or too large: an out-of-range value that drop_invalid_triangles counts.
-        face.push_back(index >= 0 && index <= double(kMaxCount) ? std::uint32_t(index)
-                                                                : kInvalidIndex);
+        // Negative, fractional or too large: an invalid value that drop_invalid_triangles counts.
+        face.push_back(whole && index >= 0 && index <= double(kMaxCount) ? std::uint32_t(index)
+                                                                         : kInvalidIndex);
       }
     }
     add_face(face);
@@ -541,7 +543,9 @@ Scene load_ply_file(const std::string& path) {
     scene.report.warnings.push_back(
         path + ": face " + std::to_string(reader.first_bad_face) +
         " (counting from 0): vertex index " + index_text(reader.first_bad_index) +
-        " is not below the file's " + std::to_string(reader.declared_vertices) + " vertices");
+        (reader.first_bad_index == std::floor(reader.first_bad_index)
+             ? " is not below the file's " + std::to_string(reader.declared_vertices) + " vertices"
+             : " is not a whole number"));
   return scene;
 }
 

@@ -2,8 +2,11 @@
 #include <fmt/format.h>
 #include <stb_image_write.h>
 
+#include <string>
+
 #include "irgrid/error.h"
 #include "irgrid/io/image.h"
+#include "irgrid/io/output_file.h"
 
 namespace irgrid {
 
@@ -12,8 +15,14 @@ void write_png(const std::string& path, int width, int height, std::span<const s
     throw Error(ErrorCode::invalid_argument,
                 fmt::format("write_png: {} bytes do not make a {}x{} RGB image", rgb.size(), width,
                             height));
-  if (!stbi_write_png(path.c_str(), width, height, 3, rgb.data(), width * 3))
-    throw Error(ErrorCode::io, fmt::format("{}: cannot write PNG", path));
+  // Encoded in memory, then written whole: a full disk leaves no truncated image behind.
+  std::string encoded;
+  const auto append = [](void* context, void* data, int size) {
+    static_cast<std::string*>(context)->append(static_cast<const char*>(data), std::size_t(size));
+  };
+  if (!stbi_write_png_to_func(append, &encoded, width, height, 3, rgb.data(), width * 3))
+    throw Error(ErrorCode::io, fmt::format("{}: cannot encode the PNG", path));
+  write_file_whole(path, encoded);
 }
 
 }  // namespace irgrid

@@ -3,11 +3,13 @@
 #include <bit>
 #include <cerrno>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 
 #include <fmt/format.h>
 
 #include "irgrid/error.h"
+#include "irgrid/io/output_file.h"
 #include "irgrid/io/rays.h"
 
 static_assert(std::endian::native == std::endian::little,
@@ -24,15 +26,15 @@ struct HagridRay {
 static_assert(sizeof(HagridRay) == 24);
 
 void write_bytes(const std::string& path, const void* data, std::size_t bytes) {
-  std::ofstream file(path, std::ios::binary | std::ios::trunc);
-  if (!file)
-    throw Error(ErrorCode::io, fmt::format("{}: cannot create: {}", path, std::strerror(errno)));
-  file.write(static_cast<const char*>(data), std::streamsize(bytes));
-  if (!file.flush()) throw Error(ErrorCode::io, fmt::format("{}: write failed", path));
+  write_file_whole(path, std::string_view(static_cast<const char*>(data), bytes));
 }
 
 template <typename Record>
 std::vector<Record> read_records(const std::string& path, const char* format_name) {
+  std::error_code ec;
+  // A directory "opens" and reports a size of 2^63 - 1; a device or pipe has no size.
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
+    throw Error(ErrorCode::io, fmt::format("{}: cannot read rays: not a regular file", path));
   std::ifstream file(path, std::ios::binary | std::ios::ate);
   if (!file)
     throw Error(ErrorCode::io, fmt::format("{}: cannot open: {}", path, std::strerror(errno)));

@@ -149,7 +149,8 @@ class HitJudge {
 
   /// How far the float test's t and barycentrics may lie from the exact ones: its own error
   /// bounds (float_test_error) with a quarter more, plus the rounding of the result to float.
-  /// None where the bounds do not hold (48 x the edge functions' error exceeds their sum).
+  /// None where the bounds do not hold (48 x the edge functions' error exceeds their sum) or
+  /// cannot be computed in float.
   static std::optional<Bound> float_test_bound(const Ray& ray, const Vec3f& p0, const Vec3f& p1,
                                                const Vec3f& p2, double exact_t) {
     const auto r = make_watertight_ray<float>(ray);
@@ -163,8 +164,12 @@ class HitJudge {
     const auto error = float_test_error<ScalarLanes>(x, y, z, depth, inv_det, t);
     if (!(48 * double(error.edge) <= std::abs(double(det)))) return std::nullopt;
     constexpr double kSlack = 1.25, kFloatRounding = 0x1p-23;
-    return Bound{kSlack * error.t + kFloatRounding * std::abs(exact_t) + 1e-30,
-                 kSlack * 6.4 * double(error.edge) / std::abs(double(det)) + kFloatRounding};
+    const Bound bound{kSlack * error.t + kFloatRounding * std::abs(exact_t) + 1e-30,
+                      kSlack * 6.4 * double(error.edge) / std::abs(double(det)) + kFloatRounding};
+    // Near the float range's ends the bound's own float products overflow (then the float test
+    // redoes t in double): no bound to judge by.
+    if (!std::isfinite(bound.t) || !std::isfinite(bound.uv)) return std::nullopt;
+    return bound;
   }
 
   const Scene& scene_;

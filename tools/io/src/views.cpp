@@ -44,12 +44,15 @@ Camera read_camera(const nlohmann::json& value, const std::string& where) {
 }  // namespace
 
 std::vector<Camera> read_views(const std::string& views_path, const std::string& scene_key) {
+  std::error_code ec;
+  if (std::filesystem::exists(views_path, ec) && !std::filesystem::is_regular_file(views_path, ec))
+    throw Error(ErrorCode::io, fmt::format("{}: cannot read: not a regular file", views_path));
   std::ifstream file(views_path);
   if (!file) throw Error(ErrorCode::io, fmt::format("{}: cannot open", views_path));
   nlohmann::json root;
   try {
     root = nlohmann::json::parse(file);
-  } catch (const nlohmann::json::parse_error& e) {
+  } catch (const nlohmann::json::exception& e) {  // parse errors, and numbers such as 1e400
     throw Error(ErrorCode::io, fmt::format("{}: malformed JSON: {}", views_path, e.what()));
   }
   if (!root.is_object() || !root.contains(scene_key)) return {};
