@@ -9,9 +9,9 @@
 
 namespace irgrid::python {
 
-std::vector<Ray> rays_from_rows(const float* rows, std::size_t n, const float* tmin,
-                                const float* tmax) {
-  std::vector<Ray> rays(n);
+RawArray<Ray> rays_from_rows(const float* rows, std::size_t n, const float* tmin,
+                             const float* tmax) {
+  auto rays = uninitialized_array<Ray>(n);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& range) {
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
       const float* r = rows + 6 * i;

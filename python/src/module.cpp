@@ -42,7 +42,7 @@ void require_columns(const FloatRows& rows, std::size_t columns, const char* wha
 }
 
 /// The rays of `rows` (origin, direction) over [tmin[i], tmax[i]].
-std::vector<Ray> rays_of(const FloatRows& rows, const Floats& tmin, const Floats& tmax) {
+RawArray<Ray> rays_of(const FloatRows& rows, const Floats& tmin, const Floats& tmax) {
   require_columns(rows, 6, "rays");
   if (tmin.shape(0) != rows.shape(0) || tmax.shape(0) != rows.shape(0))
     throw Error(ErrorCode::invalid_argument, "rays: one tmin and one tmax per ray expected");
@@ -82,9 +82,10 @@ class PyAccelerator {
     {
       nb::gil_scoped_release release;
       const auto rays = rays_of(rows, tmin, tmax);
-      std::vector<Hit> hits(n);
-      accelerator_->trace(rays, hits, Query::closest);
-      split_hits(hits, normals_.data(), t.data(), prim.data(), uv.data(), normals.data());
+      const auto hits = uninitialized_array<Hit>(n);
+      accelerator_->trace({rays.get(), n}, {hits.get(), n}, Query::closest);
+      split_hits({hits.get(), n}, normals_.data(), t.data(), prim.data(), uv.data(),
+                 normals.data());
     }
     return nb::make_tuple(t, prim, uv, normals);
   }
@@ -96,8 +97,8 @@ class PyAccelerator {
     {
       nb::gil_scoped_release release;
       const auto rays = rays_of(rows, tmin, tmax);
-      std::vector<Hit> hits(n);
-      accelerator_->trace(rays, hits, Query::any);
+      const auto hits = uninitialized_array<Hit>(n);
+      accelerator_->trace({rays.get(), n}, {hits.get(), n}, Query::any);
       for (std::size_t i = 0; i < n; ++i)
         occluded.data()[i] = hits[i].hit();
     }
@@ -113,7 +114,7 @@ class PyAccelerator {
       nb::gil_scoped_release release;
       const auto rays = rays_of(rows, tmin, tmax);
       std::vector<std::uint32_t> counts(n);
-      count_crossings(*accelerator_, rays, counts);
+      count_crossings(*accelerator_, {rays.get(), n}, counts);
       std::memcpy(out.data(), counts.data(), n * sizeof(std::int32_t));
     }
     return out;
