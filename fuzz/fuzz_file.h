@@ -7,6 +7,9 @@
 #include <cstdio>
 #include <string>
 
+#include "irgrid/error.h"
+#include "irgrid/io/scene.h"
+
 namespace irgrid::fuzz {
 
 /// Writes `data` to a file named after this process and `suffix` (which picks the reader),
@@ -18,6 +21,20 @@ inline std::string write_input(const std::uint8_t* data, std::size_t size, const
   if (size > 0 && std::fwrite(data, 1, size, file) != size) __builtin_trap();
   std::fclose(file);
   return path;
+}
+
+/// One input to a scene loader (the suffix picks OBJ or PLY): it loads or throws irgrid::Error,
+/// and every triangle it keeps names a vertex it read; anything else traps.
+inline int fuzz_scene_loader(const std::uint8_t* data, std::size_t size, const char* suffix) {
+  const std::string path = write_input(data, size, suffix);
+  try {
+    const Scene scene = load_scene(path);
+    for (const auto& t : scene.triangles)
+      for (std::uint32_t v : t)
+        if (v >= scene.vertices.size()) __builtin_trap();
+  } catch (const Error&) {
+  }
+  return 0;
 }
 
 }  // namespace irgrid::fuzz

@@ -268,28 +268,38 @@ std::array<Vec3f, 3> random_soup_triangle(Pcg32& rng, double max_size) {
   }
 }
 
-Scene make_soup(std::uint64_t count) {
+/// `count` triangles of three vertices each from corners(rng), the generator seeded by the
+/// triangle's index and `stream`: the result ignores the thread count.
+template <typename Corners>
+Scene independent_triangles(const char* name, std::uint64_t count, std::uint64_t stream,
+                            Corners corners) {
   if (3 * count > max_vertex_count) {
-    throw Error(ErrorCode::limit_exceeded,
-                "builtin soup:" + std::to_string(count) + " needs more than 2^32 vertices");
+    throw Error(ErrorCode::limit_exceeded, "builtin " + std::string(name) + ":" +
+                                               std::to_string(count) +
+                                               " needs more than 2^32 vertices");
   }
   Scene scene;
   scene.vertices.resize(3 * count);
   scene.triangles.resize(count);
-  // Edges of ~2/cbrt(N) fill the cube with a few overlapping triangles per cell.
-  const double max_size = std::min(0.5, 2.0 / std::cbrt(double(count)));
   tbb::parallel_for(tbb::blocked_range<std::uint64_t>(0, count, 4096), [&](const auto& range) {
     for (std::uint64_t i = range.begin(); i != range.end(); ++i) {
       Pcg32 rng;
-      rng.seed(hash64(i), 0x50u);  // seeded by index: the result ignores the thread count
-      const auto corners = random_soup_triangle(rng, max_size);
+      rng.seed(hash64(i), stream);
+      const std::array<Vec3f, 3> triangle = corners(rng);
       for (int k = 0; k < 3; ++k)
-        scene.vertices[3 * i + k] = corners[k];
+        scene.vertices[3 * i + k] = triangle[k];
       scene.triangles[i] = {std::uint32_t(3 * i), std::uint32_t(3 * i + 1),
                             std::uint32_t(3 * i + 2)};
     }
   });
   return scene;
+}
+
+Scene make_soup(std::uint64_t count) {
+  // Edges of ~2/cbrt(N) fill the cube with a few overlapping triangles per cell.
+  const double max_size = std::min(0.5, 2.0 / std::cbrt(double(count)));
+  return independent_triangles("soup", count, 0x50u,
+                               [&](Pcg32& rng) { return random_soup_triangle(rng, max_size); });
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -299,24 +309,12 @@ Scene make_soup(std::uint64_t count) {
 /// box, so every cell of any grid overlaps a large share of them (foliage cards, hair, CAD
 /// slivers taken to the extreme). Seeded by index, like soup.
 Scene make_overlap(std::uint64_t count) {
-  if (3 * count > max_vertex_count) {
-    throw Error(ErrorCode::limit_exceeded,
-                "builtin overlap:" + std::to_string(count) + " needs more than 2^32 vertices");
-  }
-  Scene scene;
-  scene.vertices.resize(3 * count);
-  scene.triangles.resize(count);
-  tbb::parallel_for(tbb::blocked_range<std::uint64_t>(0, count, 4096), [&](const auto& range) {
-    for (std::uint64_t i = range.begin(); i != range.end(); ++i) {
-      Pcg32 rng;
-      rng.seed(hash64(i), 0x0Fu);
-      for (int k = 0; k < 3; ++k)
-        scene.vertices[3 * i + k] = {rng.next_float(), rng.next_float(), rng.next_float()};
-      scene.triangles[i] = {std::uint32_t(3 * i), std::uint32_t(3 * i + 1),
-                            std::uint32_t(3 * i + 2)};
-    }
+  return independent_triangles("overlap", count, 0x0Fu, [](Pcg32& rng) {
+    std::array<Vec3f, 3> corners;
+    for (auto& corner : corners)
+      corner = {rng.next_float(), rng.next_float(), rng.next_float()};
+    return corners;
   });
-  return scene;
 }
 
 /// N copies of one slanted triangle, each with its own three vertices: every cell the triangle
