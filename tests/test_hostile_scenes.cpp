@@ -105,8 +105,8 @@ Scene cube_of_half_side(float s) {
 TEST(HostileScenes, ScenesPastTheFloatRangeOfTheTestAreAnErrorNotWrongHits) {
   // Cubes at 1e19 and 1e20 once gave the wrong triangle with NaN barycentrics, one at 1e-15
   // missed, and at 1e-13 t was off by 1e-6 of itself, beyond the float test's error bound:
-  // the watertight test's float products left the float range (or became subnormal). Within the limits
-  // every structure agrees with the reference; past them, an error names the limit.
+  // the watertight test's float products left the float range (or became subnormal). Within the
+  // limits every structure agrees with the reference; past them, an error names the limit.
   for (float s : {1e19f, 1e20f, 1e30f, 1e-13f, 1e-15f, 1e-20f}) {
     SCOPED_TRACE(s);
     for (Structure structure : available_structures()) {
