@@ -7,7 +7,7 @@
 #   -o DIR          bundle folder (default bundle/, git-ignored)
 #   --with-embree   keep the Embree baseline (adds about 45 MB of libembree3)
 #   SCENE_FILE      scene files copied into DIR/scenes/<folder>/ (e.g. ../shared/scenes/crown/crown.obj.xz)
-# On the GPU machine: bash DIR/run.sh [bench arguments...]   (results and logs go to $OUT or DIR/results)
+# On the GPU machine: bash DIR/run.sh (scripts/gpu-check-device.sh; results go to $OUT or DIR/results)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=bundle
@@ -37,12 +37,22 @@ for test in "$build_dir"/tests/test_*; do
   name=$(basename "$test")
   [[ -x "$test" && "$name" =~ cuda|gpu ]] && binaries+=("$test")  # CTest's gpu label rule
 done
+# The CUDA example, built as an embedder would: against an installed irgrid.
+cmake --install "$build_dir" --prefix "$build_dir/bundle-prefix" >/dev/null
+cmake -S examples/cuda_kernel -B "$build_dir/bundle-example" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+  -DCMAKE_PREFIX_PATH="$PWD/$build_dir/bundle-prefix" \
+  -DCMAKE_EXE_LINKER_FLAGS="-static-libstdc++ -static-libgcc" >/dev/null
+cmake --build "$build_dir/bundle-example" >/dev/null
+binaries+=("$build_dir/bundle-example/cuda_kernel")
 for binary in "${binaries[@]}"; do
   strip -o "$out/bin/$(basename "$binary")" "$binary"
   # Every resolved library except glibc's own, which the target provides (newer).
   ldd "$binary" | awk '$3 ~ /^\// {print $3}' | while read -r lib; do
     case "$(basename "$lib")" in
       libc.so*|libm.so*|libpthread.so*|libdl.so*|librt.so*|ld-linux*|libresolv.so*) ;;
+      # The target's own (newer) C++ runtime serves the shared libraries; ours only where it has
+      # none, since an older one first in the search path would break its tools.
+      libstdc++.so*|libgcc_s.so*) mkdir -p "$out/lib-fallback" && cp -Lu "$lib" "$out/lib-fallback/" ;;
       *) cp -Lu "$lib" "$out/lib/" ;;
     esac
   done
@@ -54,44 +64,9 @@ for scene in "${scenes[@]}"; do
 done
 cp ../shared/scenes/views.json "$out/scenes/" 2>/dev/null || true
 
-cat > "$out/run.sh" <<'RUN'
-#!/usr/bin/env bash
-# Runs the GPU tests (the executables CTest labels gpu) and the benchmark on every bundled scene.
-# Extra arguments go to `irgrid bench`. Logs and JSON go to $OUT (or results/ beside this script).
-set -uo pipefail
-here=$(cd "$(dirname "$0")" && pwd)
-results=${OUT:-$here/results}
-mkdir -p "$results"
-export LD_LIBRARY_PATH="$here/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
-export IRGRID_SHARED_SCENES="$here/scenes"
-status=0
-# With an NVIDIA device present, the GPU tests must run: IRGRID_REQUIRE_GPU turns their "no GPU"
-# skip (a driver too old for the toolkit, a missing library) into a failure.
-if ls /dev/nvidia[0-9]* >/dev/null 2>&1 ||
-   { command -v nvidia-smi >/dev/null && nvidia-smi -L 2>/dev/null | grep -q '^GPU'; }; then
-  export IRGRID_REQUIRE_GPU=1
-  echo "run.sh: an NVIDIA device is present: GPU tests that skip fail"
-fi
-"$here/bin/irgrid" info | tee "$results/info.txt"
-for test in "$here"/bin/test_*; do
-  name=$(basename "$test")
-  "$test" --gtest_brief=1 --gtest_output="json:$results/$name.json" >"$results/$name.log" 2>&1
-  code=$?
-  echo "$name: exit $code ($(grep -c '^\[  FAILED' "$results/$name.log") failed lines," \
-    "$(grep -c '^\[  SKIPPED' "$results/$name.log") skipped lines)"
-  [ $code -eq 0 ] || { status=1; tail -20 "$results/$name.log"; }
-done
-for scene in "$here"/scenes/*/*.obj.xz "$here"/scenes/*/*.ply.xz; do
-  [ -e "$scene" ] || continue
-  name=$(basename "$(dirname "$scene")")
-  views=()
-  [ -e "$here/scenes/views.json" ] && views=(--views-file "$here/scenes/views.json")
-  "$here/bin/irgrid" bench "$scene" "${views[@]}" --backend cuda \
-    --json "$results/bench-$name.json" "$@" 2>"$results/bench-$name.log" |
-    tee "$results/bench-$name.txt" || status=1
-done
-exit $status
-RUN
+cp scripts/gpu-check-device.sh "$out/run.sh"
 chmod +x "$out/run.sh"
+# The lease carries 64 MiB: large binaries and libraries travel xz-compressed (run.sh unpacks).
+find "$out/bin" "$out/lib" "$out/lib-fallback" -type f -size +2M -exec xz -T0 -6 {} +
 du -sh "$out"
 echo "gpu-bundle: $out is ready; on the GPU machine run: bash $out/run.sh"

@@ -39,6 +39,14 @@ void print_bench_table(const BenchResult& r) {
                run.view, run.kind, run.rays, run.hits, run.median_ms, run.mrays_per_s, run.checked,
                run.mismatches, per_ray(run.cells_per_ray), per_ray(run.tests_per_ray));
   }
+  if (std::any_of(r.runs.begin(), r.runs.end(),
+                  [](const BenchRun& run) { return run.host_mrays_per_s >= 0; })) {
+    fmt::print("MRays/s above: the kernel alone, rays and hits on the device; with the copies of "
+               "rays and hits (trace over host arrays):\n");
+    for (const auto& run : r.runs)
+      fmt::print("{:>4}  {:<8} {:>10.2f} ms {:>10.2f} MRays/s\n", run.view, run.kind,
+                 run.host_median_ms, run.host_mrays_per_s);
+  }
   print_validation_table(r);
 }
 
@@ -87,6 +95,10 @@ nlohmann::json result_json(const BenchResult& r) {
                             {"rays", run.rays},           {"hits", run.hits},
                             {"median_ms", run.median_ms}, {"mrays_per_s", run.mrays_per_s},
                             {"checked", run.checked},     {"mismatches", run.mismatches}};
+    if (run.host_median_ms >= 0) {
+      entry["host_median_ms"] = run.host_median_ms;
+      entry["host_mrays_per_s"] = run.host_mrays_per_s;
+    }
     if (run.checked > 0)
       entry["validation"] = {{"wrong_triangle", run.wrong_triangle},
                              {"wrong_t", run.wrong_t},

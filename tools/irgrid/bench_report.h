@@ -18,7 +18,12 @@ struct BenchRun {
   std::string kind;
   int view = 0;
   std::uint64_t rays = 0, hits = 0;
+  /// The timed trace: on the CPU, Accelerator::trace over host arrays; on CUDA, trace_device
+  /// with rays and hits already on the device, timed with events (the kernel alone).
   double median_ms = 0, mrays_per_s = 0;
+  /// CUDA only: Accelerator::trace over host arrays, the copies of rays and hits included;
+  /// negative elsewhere.
+  double host_median_ms = -1, host_mrays_per_s = -1;
   std::uint64_t checked = 0, mismatches = 0;
   /// The kinds of mismatch, and the accepted cases, of irgrid::Validation.
   std::uint64_t wrong_triangle = 0, wrong_t = 0, wrong_uv = 0, outside_window = 0, fragile = 0,
