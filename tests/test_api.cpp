@@ -1,6 +1,7 @@
 // The library API as an embedder uses it: meshes from raw arrays, enums, typed statistics,
 // concurrent traces, rebuilds, and the single-ray traversal of irgrid/kernel.h on the host.
 #include <gtest/gtest.h>
+#include <oneapi/tbb/task_arena.h>
 
 #include <cstring>
 #include <thread>
@@ -152,6 +153,31 @@ TEST(Api, RebuildGivesWhatAFreshBuildGives) {
     original->trace(rays, b, Query::closest);
     EXPECT_TRUE(same_hits(a, b)) << to_string(structure) << " rebuilt back";
   }
+}
+
+TEST(Api, CpuRebuildsTakeEveryBlockFromThePool) {
+  const Scene scene = load_scene("builtin:teapot-stadium:20000");
+  // One thread: the octree builder's threads grow their buffers in an order that decides how
+  // many blocks of a size are live together; alone, every rebuild asks for the same blocks in
+  // the same order.
+  tbb::task_arena one_thread(1);
+  one_thread.execute([&] {
+    const auto grid = make_accelerator(scene, Structure::irregular);
+    EXPECT_GT(grid->build_stats().grid->fresh_allocations, 0u);
+    grid->rebuild(scene.mesh());  // fills the pool (the first build's cache was trimmed)
+    grid->rebuild(scene.mesh());
+    EXPECT_EQ(grid->build_stats().grid->fresh_allocations, 0u);
+  });
+  // With every thread, later rebuilds allocate only where a size class is busier than before.
+  const auto grid = make_accelerator(scene, Structure::irregular);
+  grid->rebuild(scene.mesh());
+  const std::uint64_t filling = grid->build_stats().grid->fresh_allocations;
+  std::uint64_t later = 0;
+  for (int frame = 0; frame < 3; ++frame) {
+    grid->rebuild(scene.mesh());
+    later += grid->build_stats().grid->fresh_allocations;
+  }
+  EXPECT_LT(later * 20, filling) << filling << " blocks filled the pool, " << later << " more";
 }
 
 TEST(Api, RebuildRefusesAnotherTriangleCountAndKeepsTracing) {

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "cpu/cpu_executor.h"
+#include "cpu/host_pool.h"
 #include "cpu/memory_meter.h"
 #include "irgrid/error.h"
 
@@ -347,6 +348,75 @@ TEST(CpuExecutorBuffers, LargeBuffersAreHugePageAlignedAndMetered) {
     EXPECT_EQ(large.back(), 7u);
   }
   EXPECT_EQ(MemoryMeter::current(), before);
+}
+
+}  // namespace
+}  // namespace irgrid
+
+namespace irgrid {
+namespace {
+
+TEST(HostPool, ClassesRoundUpByAtMostAQuarter) {
+  EXPECT_EQ(HostPool::class_bytes(1), 256u);
+  EXPECT_EQ(HostPool::class_bytes(256), 256u);
+  EXPECT_EQ(HostPool::class_bytes(257), 320u);  // 5 x 64
+  for (std::size_t bytes : {std::size_t(1000), std::size_t(4097), std::size_t(123457),
+                            std::size_t(3) << 20, (std::size_t(1) << 33) + 1}) {
+    const std::size_t rounded = HostPool::class_bytes(bytes);
+    EXPECT_GE(rounded, bytes);
+    EXPECT_LE(rounded, bytes + bytes / 4) << bytes;
+    EXPECT_EQ(HostPool::class_bytes(rounded), rounded) << bytes;
+  }
+}
+
+TEST(HostPool, ReleasedBlocksServeTheNextRequestsOfTheirClass) {
+  HostPool pool;
+  void* a = pool.allocate(5000);
+  void* b = pool.allocate(std::size_t(3) << 20);  // huge-page aligned
+  EXPECT_EQ(pool.fresh_allocations(), 2u);
+  EXPECT_EQ(reinterpret_cast<std::uintptr_t>(b) % kHugePageBytes, 0u);
+  std::memset(b, 1, std::size_t(3) << 20);
+  pool.release(a, 5000);
+  pool.release(b, std::size_t(3) << 20);
+  EXPECT_EQ(pool.allocate(5001), a);  // same class
+  EXPECT_EQ(pool.allocate((std::size_t(3) << 20) - 7), b);
+  EXPECT_EQ(pool.fresh_allocations(), 2u);
+  pool.release(a, 5001);
+  pool.release(b, (std::size_t(3) << 20) - 7);
+  EXPECT_GT(pool.cached_bytes(), 0u);
+  pool.trim();
+  EXPECT_EQ(pool.cached_bytes(), 0u);
+}
+
+TEST(HostPool, ARequestTakesOnlyABlockOfItsOwnClass) {
+  HostPool pool;
+  void* big = pool.allocate(2560);
+  pool.release(big, 2560);
+  void* smaller = pool.allocate(2000);  // class 2048, one below 2560
+  EXPECT_NE(smaller, big);
+  EXPECT_EQ(pool.fresh_allocations(), 2u);
+  pool.release(smaller, 2000);
+  EXPECT_EQ(pool.allocate(2100), big);  // 2100 rounds up to 2560
+  pool.release(big, 2100);
+}
+
+TEST(HostPool, ExecutorBuffersComeFromThePoolAndGoBackToIt) {
+  HostPool pool;
+  const CpuExecutor exec(&pool);
+  const void* first = nullptr;
+  {
+    auto buffer = exec.allocate<std::uint32_t>(100000);
+    first = buffer.data();
+    auto grown = exec.allocate<std::uint32_t>(0);
+    for (std::uint32_t i = 0; i < 5000; ++i)
+      grown.push_back(i);  // growth takes its blocks from the pool too
+    auto moved = std::move(grown);
+    EXPECT_EQ(moved.back(), 4999u);
+  }
+  const std::uint64_t fresh = pool.fresh_allocations();
+  auto again = exec.allocate<std::uint32_t>(100000);
+  EXPECT_EQ(static_cast<const void*>(again.data()), first);
+  EXPECT_EQ(pool.fresh_allocations(), fresh);
 }
 
 }  // namespace

@@ -97,9 +97,9 @@ struct GridStats {
   /// The most memory the build held at once beyond what it started with (host memory of the
   /// build's buffers on the CPU, the device memory pool's peak on CUDA).
   std::uint64_t peak_build_bytes = 0;
-  /// CUDA: device blocks this build took from the driver rather than from the memory pool that
-  /// earlier builds of the same accelerator filled (0 when a rebuild reused them all). 0 on the
-  /// CPU, whose builds take their buffers from the host allocator each time.
+  /// Blocks of the build's buffers that this build took from the system (the CUDA driver, the
+  /// host allocator) rather than from the memory pool that earlier builds of the same
+  /// accelerator filled: 0 when a rebuild reused them all.
   std::uint64_t fresh_allocations = 0;
   /// The construction budget this build had (BuildConfig::memory_budget, resolved).
   std::uint64_t budget_bytes = 0;
@@ -185,9 +185,9 @@ class Accelerator {
 
   /// Builds the structure anew over `mesh`, which must have as many triangles as the mesh it
   /// was built over (new vertex positions of the same topology: an animation frame), with the
-  /// options it was made with. Reuses the structure's memory: grids on the CUDA backend take
-  /// every block from the pool the first build filled, so rebuilding a frame that needs no
-  /// larger arrays allocates nothing from the driver. Throws Error{invalid_argument} for
+  /// options it was made with. Reuses the structure's memory: grids take their buffers from the
+  /// pool that earlier rebuilds filled (device memory on CUDA, host memory on the CPU), so
+  /// rebuilding a frame that needs no larger arrays allocates nothing (docs/api.md). Throws Error{invalid_argument} for
   /// another triangle count, as check_mesh for a bad mesh; after an exception the accelerator
   /// traces every ray as a miss until a rebuild succeeds.
   virtual void rebuild(const TriangleMesh& mesh) = 0;

@@ -16,6 +16,7 @@
 
 #include "cpu/host_memory.h"
 #include "cpu/memory_meter.h"
+#include "cpu/pooled_allocator.h"
 #include "cpu/radix_sort.h"
 
 namespace irgrid {
@@ -46,18 +47,23 @@ class CpuExecutor {
   /// being killed by the system or its container.
   static std::uint64_t memory_budget() { return host_memory_available(); }
 
+  /// Buffers come from `pool` when it is given (it must outlive them), so that rebuilds reuse
+  /// the blocks of earlier builds; from the system allocator otherwise.
+  explicit CpuExecutor(HostPool* pool = nullptr) : pool_(pool) {}
+
   /// Memory the primitives work on; host vectors here, device buffers on the CUDA executor.
   /// Algorithm code reaches elements only through the executor's calls or, inside a
   /// for_each body, through raw pointers taken with buffer.data() beforehand. Their bytes are
   /// counted by MemoryMeter, so a build can report its peak.
   template <typename T>
-  using Buffer = std::vector<T, MeteredAllocator<T>>;
+  using Buffer = std::vector<T, PooledAllocator<T>>;
 
   /// A buffer of n elements. Contents are unspecified (left uninitialised here, as on the
-  /// device), so callers must write before they read.
+  /// device), so callers must write before they read. A buffer of 0 elements that grows later
+  /// (push_back, resize) grows from the executor's pool too.
   template <typename T>
   Buffer<T> allocate(std::size_t n) const {
-    return Buffer<T>(n);
+    return Buffer<T>(n, PooledAllocator<T>(pool_));
   }
 
   /// Calls body(i) once for every i in [0, n), in parallel and in no particular order.
@@ -124,7 +130,7 @@ class CpuExecutor {
   template <typename K, typename V>
   void sort_pairs(const char* name, K* keys, V* values, std::size_t n, int key_bits) const {
     const PhaseTimer timer(*this, name);
-    detail::radix_sort_pairs(keys, values, n, key_bits);
+    detail::radix_sort_pairs(keys, values, n, key_bits, PooledAllocator<K>(pool_));
   }
 
   /// Stable compaction: copies in[i] to out, in increasing i, for every i where
@@ -206,6 +212,7 @@ class CpuExecutor {
   // Mutable so that the primitives stay const (as on the CUDA executor, where they only
   // enqueue work); touched only by the calling thread, never by TBB workers.
   mutable std::map<std::string, double> profile_ms_;
+  HostPool* pool_ = nullptr;
 };
 
 }  // namespace irgrid

@@ -34,6 +34,9 @@ class GridCpu final : public GridAcceleratorBase {
   GridCpu(const TriangleMesh& mesh, const AcceleratorOptions& options)
       : GridAcceleratorBase(options) {
     first_build(mesh);
+    // After a one-off build the cached blocks would hold the build's peak for the grid's life;
+    // rebuilds keep them, so that later frames take every block from the cache.
+    pool_.trim();
   }
 
   Backend backend() const override { return Backend::cpu; }
@@ -43,12 +46,15 @@ class GridCpu final : public GridAcceleratorBase {
  private:
   void build(const TriangleMesh& mesh) override {
     const auto start = std::chrono::steady_clock::now();
-    CpuExecutor exec;
-    MemoryMeter::reset_peak();
-    const std::int64_t before = MemoryMeter::current();
-    // The arrays of the last grid go first, so a rebuild's peak is one grid's, not two.
+    const std::uint64_t fresh_before = pool_.fresh_allocations();
+    CpuExecutor exec(&pool_);
+    // The arrays of the last grid go first (back to the pool), so a rebuild's peak is one
+    // grid's, not two, and the new grid takes the same blocks.
     grid_ = {};
     compact_cells_ = {};
+    MemoryMeter::reset_peak();
+    const std::int64_t before = MemoryMeter::current();
+    grid_.triangles = exec.allocate<TriangleVertices>(0);
     gather_triangles(mesh, grid_.triangles);
     if (!grid_.triangles.empty()) {
       build_grid_and_compress(exec, grid_, compact_cells_, options_.grid, info_.phase_ms,
@@ -58,6 +64,7 @@ class GridCpu final : public GridAcceleratorBase {
     info_.build_ms = elapsed_ms<std::chrono::steady_clock>(start);
     record_grid_statistics(grid_, !compact_cells_.empty(), options_.grid,
                            std::uint64_t(MemoryMeter::peak() - before), info_);
+    info_.grid->fresh_allocations = pool_.fresh_allocations() - fresh_before;
     if (options_.profile_primitives) info_.primitives = primitives_by_time(exec);
   }
 
@@ -94,6 +101,7 @@ class GridCpu final : public GridAcceleratorBase {
         });
   }
 
+  HostPool pool_;  // first: it must outlive every buffer below
   GridArrays<CpuExecutor> grid_;
   CpuExecutor::Buffer<CompactCell> compact_cells_;
 };

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -121,8 +122,9 @@ bool radix_pass(const K* keys_in, const V* values_in, K* keys_out, V* values_out
 /// Stable sort of keys[0, n) with values[0, n) alongside, comparing only the low `key_bits`
 /// bits of each key (the higher bits travel with the key but are ignored, like CUB's end_bit).
 /// key_bits in [0, 8 * sizeof(K)]; throws Error(invalid_argument) otherwise.
-template <typename K, typename V>
-void radix_sort_pairs(K* keys, V* values, std::size_t n, int key_bits) {
+template <typename K, typename V, typename Allocator = MeteredAllocator<K>>
+void radix_sort_pairs(K* keys, V* values, std::size_t n, int key_bits,
+                      const Allocator& scratch_allocator = {}) {
   static_assert(std::is_integral_v<K> && std::is_unsigned_v<K>, "keys must be unsigned integers");
   if (key_bits < 0 || key_bits > int(8 * sizeof(K)))
     throw Error(ErrorCode::invalid_argument, "sort_pairs: key_bits " + std::to_string(key_bits) +
@@ -137,9 +139,12 @@ void radix_sort_pairs(K* keys, V* values, std::size_t n, int key_bits) {
   const BlockPartition blocks(
       n, std::max(radix_min_block_size, (n + radix_max_blocks - 1) / radix_max_blocks));
 
-  // Metered like the executor's buffers, so a build's peak counts the scratch too.
-  std::vector<K, MeteredAllocator<K>> scratch_keys(n);
-  std::vector<V, MeteredAllocator<V>> scratch_values(n);
+  // From the executor's allocator, so that a build's peak counts the scratch too and a
+  // rebuild takes it from the pool.
+  using KeyAllocator = typename std::allocator_traits<Allocator>::template rebind_alloc<K>;
+  using ValueAllocator = typename std::allocator_traits<Allocator>::template rebind_alloc<V>;
+  std::vector<K, KeyAllocator> scratch_keys(n, KeyAllocator(scratch_allocator));
+  std::vector<V, ValueAllocator> scratch_values(n, ValueAllocator(scratch_allocator));
   K* keys_from = keys;
   V* values_from = values;
   K* keys_to = scratch_keys.data();

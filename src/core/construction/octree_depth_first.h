@@ -227,8 +227,11 @@ TopCellOctrees<Exec> build_top_cell_octrees(Exec& exec, const GridInfo& info,
     ChunkOctrees<Exec>& chunk = chunks[c];
     const auto top_begin = std::uint32_t(c) * per_chunk;
     const std::uint32_t top_end = std::min(n, top_begin + per_chunk);
-    chunk.levels.resize(levels);
+    // Grown from the executor's buffers, so that a rebuild takes them from its pool.
+    chunk.levels.assign(levels, exec.template allocate<Entry>(0));
     chunk.levels[0].resize(top_end - top_begin);
+    chunk.cells = exec.template allocate<Cell>(0);
+    chunk.refs = exec.template allocate<std::uint32_t>(0);
     chunk.entries_per_level.resize(std::size_t(top_end - top_begin) * levels);
     depth_first_detail::TopCellBuilder<Exec> builder(info, triangles, rule, chunk, totals);
     std::vector<std::uint32_t> level_sizes(levels);

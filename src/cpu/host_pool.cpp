@@ -1,0 +1,85 @@
+// The CPU build's memory arena (host_pool.h).
+#include "cpu/host_pool.h"
+
+#include <bit>
+#include <new>
+
+#include "cpu/memory_meter.h"
+
+namespace irgrid {
+namespace {
+
+constexpr std::size_t kMinClassBytes = 256;
+constexpr std::size_t kSmallAlignment = 64;  // a cache line: SIMD loads never straddle blocks
+
+std::size_t alignment_for(std::size_t class_size) {
+  return class_size >= kHugePageBytes ? kHugePageBytes : kSmallAlignment;
+}
+
+}  // namespace
+
+std::size_t HostPool::class_bytes(std::size_t bytes) noexcept {
+  if (bytes <= kMinClassBytes) return kMinClassBytes;
+  // Keep the top three bits: classes 4, 5, 6 and 7 times a power of two.
+  const int step_bits = int(std::bit_width(bytes - 1)) - 3;
+  const std::size_t step = std::size_t(1) << step_bits;
+  return (bytes + step - 1) & ~(step - 1);
+}
+
+void* HostPool::system_allocate(std::size_t class_size) {
+  void* pointer = ::operator new(class_size, std::align_val_t(alignment_for(class_size)));
+  if (class_size >= kHugePageBytes) advise_huge_pages(pointer, class_size);
+  return pointer;
+}
+
+void HostPool::system_release(void* pointer, std::size_t class_size) noexcept {
+  ::operator delete(pointer, std::align_val_t(alignment_for(class_size)));
+}
+
+void* HostPool::allocate(std::size_t bytes) {
+  const std::size_t size = class_bytes(bytes);
+  {
+    const std::lock_guard lock(mutex_);
+    if (const auto found = cached_.find(size); found != cached_.end() && !found->second.empty()) {
+      void* pointer = found->second.back();
+      found->second.pop_back();
+      cached_bytes_ -= size;
+      return pointer;
+    }
+    ++fresh_;
+  }
+  return system_allocate(size);
+}
+
+void HostPool::release(void* pointer, std::size_t bytes) noexcept {
+  if (!pointer) return;
+  const std::size_t size = class_bytes(bytes);
+  const std::lock_guard lock(mutex_);
+  try {
+    cached_[size].push_back(pointer);
+    cached_bytes_ += size;
+  } catch (...) {  // no room to file it: give it back instead
+    system_release(pointer, size);
+  }
+}
+
+void HostPool::trim() noexcept {
+  const std::lock_guard lock(mutex_);
+  for (auto& [size, blocks] : cached_)
+    for (void* pointer : blocks)
+      system_release(pointer, size);
+  cached_.clear();
+  cached_bytes_ = 0;
+}
+
+std::uint64_t HostPool::fresh_allocations() const {
+  const std::lock_guard lock(mutex_);
+  return fresh_;
+}
+
+std::uint64_t HostPool::cached_bytes() const {
+  const std::lock_guard lock(mutex_);
+  return cached_bytes_;
+}
+
+}  // namespace irgrid
