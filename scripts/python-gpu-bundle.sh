@@ -8,7 +8,8 @@
 #
 # Usage: bash scripts/python-gpu-bundle.sh [-o DIR]     (default pybundle/, git-ignored)
 # On the GPU machine: bash DIR/run.sh [pytest arguments...]
-#   (JUnit XML, log and `irgrid` info go to $OUT, or DIR/results without it)
+#   (JUnit XML, log and `irgrid` info go to $OUT, or DIR/results without it; without an NVIDIA
+#   device it stops at once unless its first argument is --no-gpu, for rehearsals)
 # Environment: IRGRID_PY312_DEB (the .deb's URL), IRGRID_PY312_DIR (where headers are kept,
 # default /tmp/irgrid-cpython-3.12), IRGRID_BUNDLE_BUILD_DIR (default build-py312),
 # IRGRID_BUNDLE_JOBS (default: all cores).
@@ -55,7 +56,7 @@ command -v ninja >/dev/null && generator=(-G Ninja)
 cmake -S . -B "$build_dir" "${generator[@]}" -DCMAKE_BUILD_TYPE=Release \
   -DIRGRID_BUILD_PYTHON=ON -DIRGRID_BUILD_TESTS=OFF -DIRGRID_BUILD_TOOLS=OFF \
   -DIRGRID_ENABLE_CUDA=ON -DIRGRID_ENABLE_EMBREE=OFF \
-  -Dnanobind_ROOT="$nanobind_dir" -DPython_INCLUDE_DIR="$py_dir/include/python3.12" \
+  -Dnanobind_ROOT="$nanobind_dir" -Dnanobind_DIR="$nanobind_dir" -DPython_INCLUDE_DIR="$py_dir/include/python3.12" \
   -DPython_SOABI=cpython-312-x86_64-linux-gnu -DPython_SOSABI=abi3 \
   "-DCMAKE_MODULE_LINKER_FLAGS=-static-libstdc++ -static-libgcc -Wl,--exclude-libs,ALL"
 cmake --build "$build_dir" --target _irgrid --parallel "${IRGRID_BUNDLE_JOBS:-$(nproc)}"
@@ -84,7 +85,11 @@ cat > "$out/run.sh" <<'RUN'
 # Runs irgrid's Python tests with this bundle's extension (CPython 3.12, CUDA) on a GPU machine.
 # Needs python3 (or $PYTHON) 3.12 with numpy and pytest; the GPU tests use torch (CUDA) or
 # cupy. Extra arguments go to pytest. Results go to $OUT, or results/ beside this script.
+# Usage: bash run.sh [--no-gpu] [pytest arguments...]   (--no-gpu: run where no GPU is, to
+# rehearse; the GPU tests then skip)
 set -uo pipefail
+no_gpu_ok=0
+[ "${1:-}" = --no-gpu ] && { no_gpu_ok=1; shift; }
 here=$(cd "$(dirname "$0")" && pwd)
 results=${OUT:-$here/results}
 mkdir -p "$results"
@@ -110,10 +115,20 @@ if ls /dev/nvidia[0-9]* >/dev/null 2>&1 ||
    { command -v nvidia-smi >/dev/null && nvidia-smi -L 2>/dev/null | grep -q '^GPU'; }; then
   gpu_present=1
   export IRGRID_REQUIRE_GPU=1
+  "$python" -c 'import torch' 2>/dev/null || "$python" -c 'import cupy' 2>/dev/null ||
+    fail "$python has neither torch nor cupy: the GPU-array tests need one"
+elif [ "$no_gpu_ok" = 0 ]; then
+  fail "no NVIDIA device here (/dev/nvidia*, nvidia-smi); run.sh --no-gpu runs the tests anyway"
 fi
 "$python" -c 'import irgrid, irgrid._irgrid as c
 print("irgrid", irgrid.version(), "backends:", irgrid.backends(), "cuda built:", c.has_cuda())
-print("cuda:", c.cuda_status())' 2>&1 | tee "$results/info.txt"
+print("cuda:", c.cuda_status())
+for name in ("torch", "cupy"):
+    try:
+        module = __import__(name)
+        print(name, module.__version__)
+    except ImportError as e:
+        print(name, "not importable:", e)' 2>&1 | tee "$results/info.txt"
 [ "${PIPESTATUS[0]}" -eq 0 ] || fail "import irgrid failed"
 
 cd "$here/tests"
