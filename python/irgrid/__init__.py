@@ -175,7 +175,7 @@ class Scene:
         """Bytes of the acceleration structure, its copy of the triangles included."""
         return self._accelerator.memory_bytes
 
-    def cast_rays(self, rays, tmin=0.0, tmax=math.inf, stream=None) -> dict:
+    def cast_rays(self, rays, tmin=0.0, tmax=math.inf, stream=None, out=None) -> dict:
         """The closest hit of every ray in [tmin, tmax] (numbers, or arrays of the rays' leading
         shape).
 
@@ -187,10 +187,13 @@ class Scene:
 
         On the CUDA backend, rays may be a GPU array (PyTorch, CuPy, JAX, Numba; tmin and tmax
         then numbers or float32 GPU arrays): the results are new GPU arrays of that framework,
-        computed on `stream` (default: the framework's current stream; docs/python.md).
+        or go into `out` (a dict of GPU arrays with the four names; primitive_ids uint32 or
+        int32), computed on `stream` (default: the framework's current stream; docs/python.md).
         """
         if _gpu.is_gpu_array(rays):
-            return _gpu.cast_rays(self._accelerator, rays, tmin, tmax, stream)
+            return _gpu.cast_rays(self._accelerator, rays, tmin, tmax, stream, out)
+        if out is not None:
+            raise ValueError("out: only for GPU rays (numpy rays get new numpy results)")
         flat, leading = _rays(rays)
         tmin, tmax = _interval(tmin, tmax, leading)
         t, prim, uv, normals = self._accelerator.cast_rays(flat, tmin, tmax)
@@ -198,11 +201,14 @@ class Scene:
                 "primitive_uvs": uv.reshape(leading + (2,)),
                 "primitive_normals": normals.reshape(leading + (3,))}
 
-    def test_occlusions(self, rays, tmin=0.0, tmax=math.inf, stream=None) -> np.ndarray:
+    def test_occlusions(self, rays, tmin=0.0, tmax=math.inf, stream=None,
+                        out=None) -> np.ndarray:
         """Whether each ray hits anything in [tmin, tmax] (bool array, the rays' leading shape).
-        GPU rays give a GPU bool array, as in cast_rays."""
+        GPU rays give a GPU bool array, or fill `out` (bool or uint8), as in cast_rays."""
         if _gpu.is_gpu_array(rays):
-            return _gpu.test_occlusions(self._accelerator, rays, tmin, tmax, stream)
+            return _gpu.test_occlusions(self._accelerator, rays, tmin, tmax, stream, out)
+        if out is not None:
+            raise ValueError("out: only for GPU rays (numpy rays get new numpy results)")
         flat, leading = _rays(rays)
         tmin, tmax = _interval(tmin, tmax, leading)
         return self._accelerator.test_occlusions(flat, tmin, tmax).reshape(leading)

@@ -211,8 +211,36 @@ def _arguments(accelerator, rays, tmin, tmax, stream) -> tuple[tuple, tuple]:
     return (view.data, count, tmin_data, tmin_value, tmax_data, tmax_value, handle), leading
 
 
-def cast_rays(accelerator, rays, tmin, tmax, stream) -> dict:
+#: cast_rays' results: name, the dtypes an `out` array may have, trailing shape.
+_HITS = (("t_hit", ("float32",), ()), ("primitive_ids", ("uint32", "int32"), ()),
+         ("primitive_uvs", ("float32",), (2,)), ("primitive_normals", ("float32",), (3,)))
+
+
+def _output(name: str, array, shape: tuple, dtypes: tuple, stream: int) -> int:
+    """The device pointer of a caller-given result array, after checking it."""
+    if not is_gpu_array(array):
+        raise ValueError(f"{name}: expected a GPU array of shape {shape}, got "
+                         f"{type(array).__name__}")
+    view = _view(name, array, stream)
+    if view.shape != shape:
+        raise ValueError(f"{name}: expected shape {shape}, got {view.shape}")
+    if view.dtype not in dtypes:
+        raise ValueError(f"{name}: expected {' or '.join(dtypes)}, got {view.dtype}")
+    _require_c_order(name, view)
+    return view.data
+
+
+def cast_rays(accelerator, rays, tmin, tmax, stream, out=None) -> dict:
     arguments, leading = _arguments(accelerator, rays, tmin, tmax, stream)
+    if out is not None:
+        names = [name for name, _, _ in _HITS]
+        if not isinstance(out, dict) or sorted(out) != sorted(names):
+            raise ValueError(f"out: expected a dict of GPU arrays named {', '.join(names)}, got "
+                             f"{sorted(out) if isinstance(out, dict) else type(out).__name__}")
+        pointers = [_output(f"out['{name}']", out[name], leading + trailing, dtypes,
+                            arguments[-1]) for name, dtypes, trailing in _HITS]
+        accelerator.cast_rays_into(*arguments, *pointers)
+        return out
     t, prim, uv, normals = accelerator.cast_rays_on_device(*arguments)
     return {"t_hit": _shaped(_as_framework(rays, t), leading),
             "primitive_ids": _shaped(_as_framework(rays, prim), leading),
@@ -220,7 +248,11 @@ def cast_rays(accelerator, rays, tmin, tmax, stream) -> dict:
             "primitive_normals": _shaped(_as_framework(rays, normals), leading + (3,))}
 
 
-def test_occlusions(accelerator, rays, tmin, tmax, stream):
+def test_occlusions(accelerator, rays, tmin, tmax, stream, out=None):
     arguments, leading = _arguments(accelerator, rays, tmin, tmax, stream)
+    if out is not None:
+        pointer = _output("out", out, leading, ("bool", "uint8"), arguments[-1])
+        accelerator.test_occlusions_into(*arguments, pointer)
+        return out
     occluded = accelerator.test_occlusions_on_device(*arguments)
     return _shaped(_as_framework(rays, occluded), leading)

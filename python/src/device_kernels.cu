@@ -23,14 +23,18 @@ void check(cudaError_t result, const char* what) {
 
 constexpr unsigned kBlock = 256;
 
-unsigned blocks(std::size_t n) { return unsigned((n + kBlock - 1) / kBlock); }
+unsigned blocks(std::size_t n) {
+  return unsigned((n + kBlock - 1) / kBlock);
+}
 
 __global__ void pack_rays_kernel(const float* rows, std::size_t n, const float* tmin,
                                  float tmin_value, const float* tmax, float tmax_value, Ray* out) {
   const std::size_t i = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x;
   if (i >= n) return;
   const float* r = rows + 6 * i;
-  out[i] = {{r[0], r[1], r[2]}, tmin ? tmin[i] : tmin_value, {r[3], r[4], r[5]},
+  out[i] = {{r[0], r[1], r[2]},
+            tmin ? tmin[i] : tmin_value,
+            {r[3], r[4], r[5]},
             tmax ? tmax[i] : tmax_value};
 }
 
@@ -59,9 +63,13 @@ __global__ void occlusions_kernel(const Hit* hits, std::size_t n, bool* occluded
 
 }  // namespace
 
-bool available() noexcept { return true; }
+bool available() noexcept {
+  return true;
+}
 
-void FreeDevice::operator()(void* p) const noexcept { cudaFree(p); }
+void FreeDevice::operator()(void* p) const noexcept {
+  cudaFree(p);
+}
 
 DeviceMemory allocate(std::size_t bytes, const char* what) {
   void* p = nullptr;
@@ -122,7 +130,9 @@ Scratch::Scratch(std::size_t bytes, Stream stream) : stream_(stream) {
   }
 }
 
-Scratch::~Scratch() { cudaFreeAsync(data_, stream_); }
+Scratch::~Scratch() {
+  cudaFreeAsync(data_, stream_);
+}
 
 void pack_rays(const float* rows, std::size_t n, const float* tmin, float tmin_value,
                const float* tmax, float tmax_value, Ray* out, Stream stream) {

@@ -15,14 +15,28 @@ namespace {
 
 }  // namespace
 
-bool available() noexcept { return false; }
+bool available() noexcept {
+  return false;
+}
 void FreeDevice::operator()(void*) const noexcept {}
-DeviceMemory allocate(std::size_t, const char*) { no_cuda(); }
-void upload(void*, const void*, std::size_t) { no_cuda(); }
-int current_device() { no_cuda(); }
-int device_of(const void*) { no_cuda(); }
-void wait_for(Stream, Stream) { no_cuda(); }
-Scratch::Scratch(std::size_t, Stream stream) : stream_(stream) { no_cuda(); }
+DeviceMemory allocate(std::size_t, const char*) {
+  no_cuda();
+}
+void upload(void*, const void*, std::size_t) {
+  no_cuda();
+}
+int current_device() {
+  no_cuda();
+}
+int device_of(const void*) {
+  no_cuda();
+}
+void wait_for(Stream, Stream) {
+  no_cuda();
+}
+Scratch::Scratch(std::size_t, Stream stream) : stream_(stream) {
+  no_cuda();
+}
 Scratch::~Scratch() = default;
 void pack_rays(const float*, std::size_t, const float*, float, const float*, float, Ray*, Stream) {
   no_cuda();
@@ -31,6 +45,8 @@ void split_hits(const Hit*, std::size_t, const float*, float*, std::uint32_t*, f
                 Stream) {
   no_cuda();
 }
-void occlusions(const Hit*, std::size_t, bool*, Stream) { no_cuda(); }
+void occlusions(const Hit*, std::size_t, bool*, Stream) {
+  no_cuda();
+}
 
 }  // namespace irgrid::python::gpu

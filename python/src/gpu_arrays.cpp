@@ -41,10 +41,10 @@ void require_same_device(const DeviceScene& scene, const DeviceRays& rays) {
   if (rays.tmax) require_on_device(rays.tmax, "tmax", scene.device);
   const int current = gpu::current_device();
   if (current != scene.device)
-    throw Error(ErrorCode::invalid_argument,
-                "the current CUDA device is " + device_name(current) + ", the Scene's is " +
-                    device_name(scene.device) + " (select it, e.g. torch.cuda.device(" +
-                    std::to_string(scene.device) + "))");
+    throw Error(ErrorCode::invalid_argument, "the current CUDA device is " + device_name(current) +
+                                                 ", the Scene's is " + device_name(scene.device) +
+                                                 " (select it, e.g. torch.cuda.device(" +
+                                                 std::to_string(scene.device) + "))");
 }
 
 /// Device memory for `shape` elements of T, handed to Python: freed when its last user (the
@@ -58,7 +58,9 @@ DeviceArray<T> to_python(gpu::DeviceMemory memory, std::initializer_list<std::si
                         nb::device::cuda::value, device);
 }
 
-gpu::Stream stream_of(std::uintptr_t handle) { return reinterpret_cast<gpu::Stream>(handle); }
+gpu::Stream stream_of(std::uintptr_t handle) {
+  return reinterpret_cast<gpu::Stream>(handle);
+}
 
 /// Packs the rays and traces them into `hits` (device memory for rays.count hits).
 void trace(const DeviceScene& scene, const DeviceRays& rays, Hit* hits, Query query) {
@@ -71,17 +73,47 @@ void trace(const DeviceScene& scene, const DeviceRays& rays, Hit* hits, Query qu
   scene.accelerator->trace_device(device_rays, hits, rays.count, query, stream);
 }
 
+/// Queues the closest hits of `rays` into `out` (every array rays.count long).
+void queue_closest(const DeviceScene& scene, const DeviceRays& rays, const DeviceHits& out) {
+  if (rays.count == 0) return;
+  const gpu::Stream stream = stream_of(rays.stream);
+  gpu::Scratch hits(rays.count * sizeof(Hit), stream);
+  Hit* device_hits = static_cast<Hit*>(hits.get());
+  trace(scene, rays, device_hits, Query::closest);
+  gpu::split_hits(device_hits, rays.count, scene.normals, reinterpret_cast<float*>(out.t),
+                  reinterpret_cast<std::uint32_t*>(out.prim), reinterpret_cast<float*>(out.uv),
+                  reinterpret_cast<float*>(out.normals), stream);
+}
+
+/// Queues whether each ray of `rays` hits anything into occluded[i].
+void queue_any(const DeviceScene& scene, const DeviceRays& rays, bool* occluded) {
+  if (rays.count == 0) return;
+  const gpu::Stream stream = stream_of(rays.stream);
+  gpu::Scratch hits(rays.count * sizeof(Hit), stream);
+  Hit* device_hits = static_cast<Hit*>(hits.get());
+  trace(scene, rays, device_hits, Query::any);
+  gpu::occlusions(device_hits, rays.count, occluded, stream);
+}
+
 std::string dtype_name(nb::dlpack::dtype dtype) {
   using Code = nb::dlpack::dtype_code;
-  const std::string bits = std::to_string(dtype.bits) + (dtype.lanes != 1 ? "x" + std::to_string(dtype.lanes) : "");
+  const std::string bits =
+      std::to_string(dtype.bits) + (dtype.lanes != 1 ? "x" + std::to_string(dtype.lanes) : "");
   switch (Code(dtype.code)) {
-    case Code::Int: return "int" + bits;
-    case Code::UInt: return "uint" + bits;
-    case Code::Float: return "float" + bits;
-    case Code::Bfloat: return "bfloat" + bits;
-    case Code::Complex: return "complex" + bits;
-    case Code::Bool: return "bool";
-    default: return "dlpack type code " + std::to_string(dtype.code) + " of " + bits + " bits";
+    case Code::Int:
+      return "int" + bits;
+    case Code::UInt:
+      return "uint" + bits;
+    case Code::Float:
+      return "float" + bits;
+    case Code::Bfloat:
+      return "bfloat" + bits;
+    case Code::Complex:
+      return "complex" + bits;
+    case Code::Bool:
+      return "bool";
+    default:
+      return "dlpack type code " + std::to_string(dtype.code) + " of " + bits + " bits";
   }
 }
 
@@ -97,20 +129,28 @@ nb::tuple cast_rays_on_device(const DeviceScene& scene, const DeviceRays& rays) 
     prim = gpu::allocate(n * sizeof(std::uint32_t), "primitive_ids");
     uv = gpu::allocate(n * 2 * sizeof(float), "primitive_uvs");
     normals = gpu::allocate(n * 3 * sizeof(float), "primitive_normals");
-    if (n > 0) {
-      const gpu::Stream stream = stream_of(rays.stream);
-      gpu::Scratch hits(n * sizeof(Hit), stream);
-      Hit* device_hits = static_cast<Hit*>(hits.get());
-      trace(scene, rays, device_hits, Query::closest);
-      gpu::split_hits(device_hits, n, scene.normals, static_cast<float*>(t.get()),
-                      static_cast<std::uint32_t*>(prim.get()), static_cast<float*>(uv.get()),
-                      static_cast<float*>(normals.get()), stream);
-    }
+    queue_closest(
+        scene, rays,
+        {reinterpret_cast<std::uintptr_t>(t.get()), reinterpret_cast<std::uintptr_t>(prim.get()),
+         reinterpret_cast<std::uintptr_t>(uv.get()),
+         reinterpret_cast<std::uintptr_t>(normals.get())});
   }
   return nb::make_tuple(to_python<float>(std::move(t), {n}, scene.device),
                         to_python<std::uint32_t>(std::move(prim), {n}, scene.device),
                         to_python<float>(std::move(uv), {n, 2}, scene.device),
                         to_python<float>(std::move(normals), {n, 3}, scene.device));
+}
+
+void cast_rays_into(const DeviceScene& scene, const DeviceRays& rays, const DeviceHits& out) {
+  require_same_device(scene, rays);
+  if (rays.count > 0) {
+    require_on_device(out.t, "out['t_hit']", scene.device);
+    require_on_device(out.prim, "out['primitive_ids']", scene.device);
+    require_on_device(out.uv, "out['primitive_uvs']", scene.device);
+    require_on_device(out.normals, "out['primitive_normals']", scene.device);
+  }
+  nb::gil_scoped_release release;
+  queue_closest(scene, rays, out);
 }
 
 nb::ndarray<nb::array_api, bool, nb::device::cuda> test_occlusions_on_device(
@@ -121,15 +161,17 @@ nb::ndarray<nb::array_api, bool, nb::device::cuda> test_occlusions_on_device(
   {
     nb::gil_scoped_release release;
     occluded = gpu::allocate(n * sizeof(bool), "occluded");
-    if (n > 0) {
-      const gpu::Stream stream = stream_of(rays.stream);
-      gpu::Scratch hits(n * sizeof(Hit), stream);
-      Hit* device_hits = static_cast<Hit*>(hits.get());
-      trace(scene, rays, device_hits, Query::any);
-      gpu::occlusions(device_hits, n, static_cast<bool*>(occluded.get()), stream);
-    }
+    queue_any(scene, rays, static_cast<bool*>(occluded.get()));
   }
   return to_python<bool>(std::move(occluded), {n}, scene.device);
+}
+
+void test_occlusions_into(const DeviceScene& scene, const DeviceRays& rays,
+                          std::uintptr_t occluded) {
+  require_same_device(scene, rays);
+  if (rays.count > 0) require_on_device(occluded, "out", scene.device);
+  nb::gil_scoped_release release;
+  queue_any(scene, rays, reinterpret_cast<bool*>(occluded));
 }
 
 nb::tuple dlpack_layout(const nb::ndarray<>& array) {

@@ -37,14 +37,27 @@ struct DeviceScene {
   const float* normals = nullptr;
 };
 
+/// Caller-given device arrays for closest hits of rays.count rays: t (floats), primitive ids
+/// (32-bit), uv (2 floats a ray), normals (3 floats a ray), C-contiguous.
+struct DeviceHits {
+  std::uintptr_t t = 0, prim = 0, uv = 0, normals = 0;
+};
+
 /// Closest hits of device rays: (t_hit, primitive_ids, primitive_uvs, primitive_normals) as
 /// new device arrays (nanobind's DLPack arrays), ready when `rays.stream` reaches this point.
 /// Throws Error{invalid_argument} naming the array that lies on another device than the scene.
 nb::tuple cast_rays_on_device(const DeviceScene& scene, const DeviceRays& rays);
 
+/// The same into the caller's arrays `out`, queued on rays.stream.
+void cast_rays_into(const DeviceScene& scene, const DeviceRays& rays, const DeviceHits& out);
+
 /// Whether each device ray hits anything in its interval, as a new device bool array.
 nb::ndarray<nb::array_api, bool, nb::device::cuda> test_occlusions_on_device(
     const DeviceScene& scene, const DeviceRays& rays);
+
+/// The same into the caller's array of rays.count bytes (bool or uint8) at `occluded`.
+void test_occlusions_into(const DeviceScene& scene, const DeviceRays& rays,
+                          std::uintptr_t occluded);
 
 /// What a DLPack array (a capsule, or an object with __dlpack__) holds: (data pointer, shape,
 /// strides in elements, dtype name such as "float32", DLPack device type, device id), for the

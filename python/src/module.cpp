@@ -152,6 +152,16 @@ class PyAccelerator {
     return python::test_occlusions_on_device(device_scene(), rays);
   }
 
+  /// cast_rays_on_device into the caller's device arrays.
+  void cast_rays_into(const DeviceRays& rays, const DeviceHits& out) const {
+    python::cast_rays_into(device_scene(), rays, out);
+  }
+
+  /// test_occlusions_on_device into the caller's device array.
+  void test_occlusions_into(const DeviceRays& rays, std::uintptr_t occluded) const {
+    python::test_occlusions_into(device_scene(), rays, occluded);
+  }
+
   nb::dict stats() const {
     const BuildStats& s = accelerator_->build_stats();
     nb::dict out, phases;
@@ -204,8 +214,8 @@ class PyAccelerator {
   std::vector<std::uint32_t> triangles_;
   std::vector<float> normals_;  ///< 3 per triangle
   std::unique_ptr<Accelerator> accelerator_;
-  int device_ = -1;                     ///< the CUDA device of the structure; -1 on the CPU
-  gpu::DeviceMemory device_normals_;    ///< normals_ on device_
+  int device_ = -1;                   ///< the CUDA device of the structure; -1 on the CPU
+  gpu::DeviceMemory device_normals_;  ///< normals_ on device_
 };
 
 /// OBJ or PLY (also .gz / .xz) as (vertices float32 (V, 3), triangles uint32 (T, 3)); invalid
@@ -281,22 +291,35 @@ NB_MODULE(_irgrid, m) {
       .def("count_intersections", &PyAccelerator::count_intersections, nb::arg("rays"),
            nb::arg("tmin"), nb::arg("tmax"))
       .def("rebuild", &PyAccelerator::rebuild, nb::arg("vertices"))
+      // Rays in GPU memory (irgrid/_gpu.py): rows, count, tmin, tmin_value, tmax, tmax_value,
+      // stream, then the output pointers of the *_into forms.
       .def(
           "cast_rays_on_device",
           [](const PyAccelerator& self, std::uintptr_t rows, std::size_t count, std::uintptr_t tmin,
              float tmin_value, std::uintptr_t tmax, float tmax_value, std::uintptr_t stream) {
             return self.cast_rays_on_device(
                 {rows, count, tmin, tmin_value, tmax, tmax_value, stream});
-          },
-          nb::arg("rows"), nb::arg("count"), nb::arg("tmin"), nb::arg("tmin_value"),
-          nb::arg("tmax"), nb::arg("tmax_value"), nb::arg("stream"))
+          })
       .def(
           "test_occlusions_on_device",
           [](const PyAccelerator& self, std::uintptr_t rows, std::size_t count, std::uintptr_t tmin,
              float tmin_value, std::uintptr_t tmax, float tmax_value, std::uintptr_t stream) {
             return self.test_occlusions_on_device(
                 {rows, count, tmin, tmin_value, tmax, tmax_value, stream});
-          },
-          nb::arg("rows"), nb::arg("count"), nb::arg("tmin"), nb::arg("tmin_value"),
-          nb::arg("tmax"), nb::arg("tmax_value"), nb::arg("stream"));
+          })
+      .def(
+          "cast_rays_into",
+          [](const PyAccelerator& self, std::uintptr_t rows, std::size_t count, std::uintptr_t tmin,
+             float tmin_value, std::uintptr_t tmax, float tmax_value, std::uintptr_t stream,
+             std::uintptr_t t, std::uintptr_t prim, std::uintptr_t uv, std::uintptr_t normals) {
+            self.cast_rays_into({rows, count, tmin, tmin_value, tmax, tmax_value, stream},
+                                {t, prim, uv, normals});
+          })
+      .def("test_occlusions_into",
+           [](const PyAccelerator& self, std::uintptr_t rows, std::size_t count,
+              std::uintptr_t tmin, float tmin_value, std::uintptr_t tmax, float tmax_value,
+              std::uintptr_t stream, std::uintptr_t occluded) {
+             self.test_occlusions_into({rows, count, tmin, tmin_value, tmax, tmax_value, stream},
+                                       occluded);
+           });
 }

@@ -85,3 +85,78 @@ def test_stream_arguments():
     assert _gpu._stream_handle(0) == 0
     with pytest.raises(ValueError, match="stream: expected a CUDA stream"):
         _gpu._stream_handle("fast")
+
+
+class RecordingAccelerator:
+    """Stands for a Scene's accelerator on the CUDA backend: records what the GPU path hands
+    over instead of tracing."""
+
+    backend = "cuda"
+
+    def __init__(self):
+        self.calls = []
+
+    def cast_rays_on_device(self, *arguments):
+        self.calls.append(("cast_rays_on_device", arguments))
+        count = arguments[1]
+        return (np.zeros(count, np.float32), np.zeros(count, np.uint32),
+                np.zeros((count, 2), np.float32), np.zeros((count, 3), np.float32))
+
+    def cast_rays_into(self, *arguments):
+        self.calls.append(("cast_rays_into", arguments))
+
+    def test_occlusions_into(self, *arguments):
+        self.calls.append(("test_occlusions_into", arguments))
+
+
+def test_what_the_gpu_path_hands_over(monkeypatch):
+    waits = []
+    monkeypatch.setattr(_gpu._irgrid, "stream_wait", lambda *streams: waits.append(streams))
+    accelerator = RecordingAccelerator()
+    rays = CudaArrayInterface((2, 3, 6))
+    rays.__cuda_array_interface__["stream"] = 77  # where the rays were made
+    hits = _gpu.cast_rays(accelerator, rays, 0.5, CudaArrayInterface((2, 3)), None, None)
+    name, arguments = accelerator.calls[-1]
+    # rows, count, tmin array, tmin value, tmax array, tmax value, stream: the rays' own stream
+    assert name == "cast_rays_on_device"
+    assert arguments == (0x7F0000000000, 6, 0, 0.5, 0x7F0000000000, 0.0, 77)
+    assert hits["t_hit"].shape == (2, 3) and hits["primitive_normals"].shape == (2, 3, 3)
+    assert waits == []
+    _gpu.cast_rays(accelerator, rays, 0.0, 1.0, 5, None)  # another stream waits for the rays'
+    assert accelerator.calls[-1][1][-1] == 5 and waits == [(5, 77)]
+
+
+def test_caller_given_outputs(monkeypatch):
+    accelerator = RecordingAccelerator()
+    rays = CudaArrayInterface((4, 6))
+    out = {"t_hit": CudaArrayInterface((4,)), "primitive_ids": CudaArrayInterface((4,), "<i4"),
+           "primitive_uvs": CudaArrayInterface((4, 2)),
+           "primitive_normals": CudaArrayInterface((4, 3))}
+    assert _gpu.cast_rays(accelerator, rays, 0.0, 1.0, None, out) is out
+    name, arguments = accelerator.calls[-1]
+    assert name == "cast_rays_into" and len(arguments) == 7 + 4
+    occluded = CudaArrayInterface((4,), "|b1")
+    assert _gpu.test_occlusions(accelerator, rays, 0.0, 1.0, None, occluded) is occluded
+    with pytest.raises(ValueError, match=r"out\['primitive_uvs'\]: expected shape \(4, 2\), got "
+                                         r"\(4, 3\)"):
+        _gpu.cast_rays(accelerator, rays, 0.0, 1.0, None,
+                       dict(out, primitive_uvs=CudaArrayInterface((4, 3))))
+    with pytest.raises(ValueError, match=r"out\['t_hit'\]: expected float32, got float64"):
+        _gpu.cast_rays(accelerator, rays, 0.0, 1.0, None,
+                       dict(out, t_hit=CudaArrayInterface((4,), "<f8")))
+    with pytest.raises(ValueError, match=r"out\['primitive_ids'\]: expected a GPU array"):
+        _gpu.cast_rays(accelerator, rays, 0.0, 1.0, None,
+                       dict(out, primitive_ids=np.zeros(4, np.uint32)))
+    with pytest.raises(ValueError, match="out: expected a dict of GPU arrays named t_hit"):
+        _gpu.cast_rays(accelerator, rays, 0.0, 1.0, None, {"t_hit": out["t_hit"]})
+    with pytest.raises(ValueError, match="out: expected bool or uint8, got float32"):
+        _gpu.test_occlusions(accelerator, rays, 0.0, 1.0, None, CudaArrayInterface((4,)))
+
+
+def test_out_needs_gpu_rays(unit_square):
+    scene = irgrid.Scene(*unit_square)
+    rays = np.zeros((2, 6), np.float32)
+    with pytest.raises(ValueError, match="out: only for GPU rays"):
+        scene.cast_rays(rays, out={})
+    with pytest.raises(ValueError, match="out: only for GPU rays"):
+        scene.test_occlusions(rays, out=np.zeros(2, bool))

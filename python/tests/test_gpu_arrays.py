@@ -122,6 +122,35 @@ def test_cast_rays_matches_numpy_bit_for_bit(cuda_scene, fw):
     assert_same_hits({k: fw.to_host(v) for k, v in hits.items()}, expected, seed)
 
 
+def poison(shape, dtype):
+    """An array whose every element is the NaN bit pattern 0x7FA5A5A5 (0xA5 bytes for 1-byte
+    types): a result the trace failed to write cannot match."""
+    dtype = np.dtype(dtype)
+    if dtype.itemsize == 1:
+        return np.full(shape, 0xA5, np.uint8).view(dtype)
+    return np.full(shape, 0x7FA5A5A5, np.uint32).view(dtype)
+
+
+def test_cast_rays_into_poisoned_arrays(cuda_scene, fw):
+    seed = secrets.randbits(32)
+    rays = random_rays(cuda_scene, (50, 61), seed)
+    expected = cuda_scene.cast_rays(rays)
+    ids = np.int32 if fw.name == "torch" else np.uint32  # torch's uint32 is barely usable
+    out = {"t_hit": fw.to_device(poison((50, 61), np.float32)),
+           "primitive_ids": fw.to_device(poison((50, 61), ids)),
+           "primitive_uvs": fw.to_device(poison((50, 61, 2), np.float32)),
+           "primitive_normals": fw.to_device(poison((50, 61, 3), np.float32))}
+    assert cuda_scene.cast_rays(fw.to_device(rays), out=out) is out
+    got = {k: fw.to_host(v) for k, v in out.items()}
+    got["primitive_ids"] = got["primitive_ids"].view(np.uint32)
+    assert_same_hits(got, expected, seed)
+    occluded = fw.to_device(poison((50, 61), np.uint8))
+    cuda_scene.test_occlusions(fw.to_device(rays), tmax=2.0, out=occluded)
+    flags = fw.to_host(occluded)
+    assert set(np.unique(flags)) <= {0, 1}, f"unwritten flags (seed {seed})"
+    assert np.array_equal(flags.astype(bool), cuda_scene.test_occlusions(rays, tmax=2.0))
+
+
 def test_per_ray_intervals_on_the_gpu(cuda_scene, fw):
     seed = secrets.randbits(32)
     rays = random_rays(cuda_scene, (5000,), seed)
