@@ -35,10 +35,11 @@ class _View(NamedTuple):
 
 
 def _interface(array):
-    """__cuda_array_interface__ of `array`, or None (a CPU torch tensor raises on access)."""
+    """__cuda_array_interface__ of `array`, or None (torch raises on access for a CPU tensor,
+    and for one that requires grad, whose __dlpack__ then says what to do)."""
     try:
         return array.__cuda_array_interface__
-    except AttributeError:
+    except (AttributeError, RuntimeError):
         return None
 
 
@@ -102,6 +103,11 @@ def _current_stream(array) -> int:
     return 0
 
 
+def _same_stream(a: int, b: int) -> bool:
+    """Whether two cudaStream_t values name one stream (0 and 1: the legacy default stream)."""
+    return a == b or (a in (0, 1) and b in (0, 1))
+
+
 def _view(name: str, array, stream: int) -> _View:
     """The memory of `array`, ordered before `stream` as its protocol asks."""
     if hasattr(array, "__dlpack__"):
@@ -122,7 +128,7 @@ def _view(name: str, array, stream: int) -> _View:
     if interface.get("mask") is not None:
         raise ValueError(f"{name}: masked arrays are not supported")
     producer = interface.get("stream")
-    if producer is not None and int(producer) != stream:
+    if producer is not None and not _same_stream(int(producer), stream):
         _irgrid.stream_wait(stream, int(producer))
     dtype = np.dtype(interface["typestr"])
     strides = interface.get("strides")

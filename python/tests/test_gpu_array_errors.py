@@ -160,3 +160,12 @@ def test_out_needs_gpu_rays(unit_square):
         scene.cast_rays(rays, out={})
     with pytest.raises(ValueError, match="out: only for GPU rays"):
         scene.test_occlusions(rays, out=np.zeros(2, bool))
+
+
+def test_the_legacy_default_stream_has_two_names(monkeypatch):
+    waits = []
+    monkeypatch.setattr(_gpu._irgrid, "stream_wait", lambda *streams: waits.append(streams))
+    rays = CudaArrayInterface((1, 6))
+    rays.__cuda_array_interface__["stream"] = 1  # the interface's name for it
+    _gpu.cast_rays(RecordingAccelerator(), rays, 0.0, 1.0, 0, None)
+    assert waits == []
