@@ -22,10 +22,9 @@ std::string device_name(int device) {
 void require_on_device(std::uintptr_t pointer, const char* name, int device) {
   const int found = gpu::device_of(reinterpret_cast<const void*>(pointer));
   if (found != device)
-    throw Error(ErrorCode::invalid_argument,
-                std::string(name) + ": the array is in " + device_name(found) +
-                    ", the Scene is on " + device_name(device) +
-                    " (move it with .to(device) / cupy.asarray under that device)");
+    throw Error(ErrorCode::invalid_argument, std::string(name) + ": the array is in " +
+                                                 device_name(found) + ", the Scene is on " +
+                                                 device_name(device) + " (copy it there first)");
 }
 
 /// Throws unless the rays and the scene can meet: the scene traces on CUDA, every array lies on

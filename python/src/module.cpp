@@ -1,5 +1,6 @@
 // irgrid._irgrid: the C++ side of the Python package. The Python layer (irgrid/__init__.py)
-// checks shapes and dtypes and hands over C-contiguous float32 / uint32 arrays.
+// checks shapes and dtypes and hands over C-contiguous float32 / uint32 arrays, or for rays in
+// GPU memory (irgrid/_gpu.py) device pointers and a stream (gpu_arrays.h).
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
 #include <nanobind/stl/pair.h>
