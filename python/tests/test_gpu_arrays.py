@@ -73,8 +73,8 @@ def cuda_scene():
 
 
 def random_rays(scene, shape, seed):
-    """Fresh rays from inside and around the scene's box in random directions (some zero-length
-    intervals and misses among them)."""
+    """Rays from inside and around the scene's box in random directions (hits and misses);
+    the tests draw a new seed each run and name it when they fail."""
     rng = np.random.default_rng(seed)
     low, high = scene.vertices.min(axis=0), scene.vertices.max(axis=0)
     margin = 0.2 * (high - low)
