@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from . import _irgrid
+from . import _gpu, _irgrid
 from ._irgrid import Error
 
 __all__ = ["Scene", "Error", "load", "backends", "structures", "version", "MISS"]
@@ -175,7 +175,7 @@ class Scene:
         """Bytes of the acceleration structure, its copy of the triangles included."""
         return self._accelerator.memory_bytes
 
-    def cast_rays(self, rays, tmin=0.0, tmax=math.inf) -> dict:
+    def cast_rays(self, rays, tmin=0.0, tmax=math.inf, stream=None, out=None) -> dict:
         """The closest hit of every ray in [tmin, tmax] (numbers, or arrays of the rays' leading
         shape).
 
@@ -184,7 +184,16 @@ class Scene:
         dimensions: t_hit float32 (inf on a miss), primitive_ids uint32 (irgrid.MISS on a
         miss), primitive_uvs (..., 2) float32 (p = (1-u-v) v0 + u v1 + v v2) and
         primitive_normals (..., 3) float32 (unit geometric normals, zero on a miss).
+
+        On the CUDA backend, rays may be a GPU array (PyTorch, CuPy, JAX, Numba; tmin and tmax
+        then numbers or float32 GPU arrays): the results are new GPU arrays of that framework,
+        or go into `out` (a dict of GPU arrays with the four names; primitive_ids uint32 or
+        int32), computed on `stream` (default: the framework's current stream; docs/python.md).
         """
+        if _gpu.is_gpu_array(rays):
+            return _gpu.cast_rays(self._accelerator, rays, tmin, tmax, stream, out)
+        if out is not None:
+            raise ValueError("out: only for GPU rays (numpy rays get new numpy results)")
         flat, leading = _rays(rays)
         tmin, tmax = _interval(tmin, tmax, leading)
         t, prim, uv, normals = self._accelerator.cast_rays(flat, tmin, tmax)
@@ -192,8 +201,14 @@ class Scene:
                 "primitive_uvs": uv.reshape(leading + (2,)),
                 "primitive_normals": normals.reshape(leading + (3,))}
 
-    def test_occlusions(self, rays, tmin=0.0, tmax=math.inf) -> np.ndarray:
-        """Whether each ray hits anything in [tmin, tmax] (bool array, the rays' leading shape)."""
+    def test_occlusions(self, rays, tmin=0.0, tmax=math.inf, stream=None,
+                        out=None) -> np.ndarray:
+        """Whether each ray hits anything in [tmin, tmax] (bool array, the rays' leading shape).
+        GPU rays give a GPU bool array, or fill `out` (bool or uint8), as in cast_rays."""
+        if _gpu.is_gpu_array(rays):
+            return _gpu.test_occlusions(self._accelerator, rays, tmin, tmax, stream, out)
+        if out is not None:
+            raise ValueError("out: only for GPU rays (numpy rays get new numpy results)")
         flat, leading = _rays(rays)
         tmin, tmax = _interval(tmin, tmax, leading)
         return self._accelerator.test_occlusions(flat, tmin, tmax).reshape(leading)
@@ -202,6 +217,9 @@ class Scene:
         """How many times each ray crosses the mesh in [tmin, tmax] (int32, the rays' leading
         shape). From outside a closed mesh, odd means the end point is inside. Watertight: a
         ray through a shared edge or vertex counts one crossing there."""
+        if _gpu.is_gpu_array(rays):
+            raise ValueError(f"rays: count_intersections takes numpy arrays, got "
+                             f"{_gpu.describe(rays)} (GPU arrays: cast_rays, test_occlusions)")
         flat, leading = _rays(rays)
         tmin, tmax = _interval(tmin, tmax, leading)
         return self._accelerator.count_intersections(flat, tmin, tmax).reshape(leading)

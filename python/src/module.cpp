@@ -1,5 +1,6 @@
 // irgrid._irgrid: the C++ side of the Python package. The Python layer (irgrid/__init__.py)
-// checks shapes and dtypes and hands over C-contiguous float32 / uint32 arrays.
+// checks shapes and dtypes and hands over C-contiguous float32 / uint32 arrays, or for rays in
+// GPU memory (irgrid/_gpu.py) device pointers and a stream (gpu_arrays.h).
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
 #include <nanobind/stl/pair.h>
@@ -12,6 +13,8 @@
 #include <vector>
 
 #include "arrays.h"
+#include "device_kernels.h"
+#include "gpu_arrays.h"
 #include "irgrid/io/scene.h"
 #include "irgrid/irgrid.h"
 
@@ -66,6 +69,7 @@ class PyAccelerator {
     const Structure chosen = parse_structure(structure);
     nb::gil_scoped_release release;
     accelerator_ = make_accelerator(mesh(), chosen, options);
+    if (accelerator_->backend() == Backend::cuda) device_ = gpu::current_device();
     update_normals();
   }
 
@@ -138,6 +142,27 @@ class PyAccelerator {
     update_normals();
   }
 
+  /// cast_rays for rays in GPU memory (gpu_arrays.h).
+  nb::tuple cast_rays_on_device(const DeviceRays& rays) const {
+    return python::cast_rays_on_device(device_scene(), rays);
+  }
+
+  /// test_occlusions for rays in GPU memory.
+  nb::ndarray<nb::array_api, bool, nb::device::cuda> test_occlusions_on_device(
+      const DeviceRays& rays) const {
+    return python::test_occlusions_on_device(device_scene(), rays);
+  }
+
+  /// cast_rays_on_device into the caller's device arrays.
+  void cast_rays_into(const DeviceRays& rays, const DeviceHits& out) const {
+    python::cast_rays_into(device_scene(), rays, out);
+  }
+
+  /// test_occlusions_on_device into the caller's device array.
+  void test_occlusions_into(const DeviceRays& rays, std::uintptr_t occluded) const {
+    python::test_occlusions_into(device_scene(), rays, occluded);
+  }
+
   nb::dict stats() const {
     const BuildStats& s = accelerator_->build_stats();
     nb::dict out, phases;
@@ -172,15 +197,26 @@ class PyAccelerator {
             triangles_.size() / 3};
   }
 
-  /// The geometric normal of every triangle, for the hits' normals.
+  /// The geometric normal of every triangle, for the hits' normals (also in device memory on
+  /// the CUDA backend, for rays from GPU arrays).
   void update_normals() {
     triangle_normals(vertices_.data(), triangles_.data(), triangles_.size() / 3, normals_.data());
+    if (device_ < 0) return;
+    const std::size_t bytes = normals_.size() * sizeof(float);
+    if (!device_normals_) device_normals_ = gpu::allocate(bytes, "triangle normals");
+    gpu::upload(device_normals_.get(), normals_.data(), bytes);
+  }
+
+  DeviceScene device_scene() const {
+    return {accelerator_.get(), device_, static_cast<const float*>(device_normals_.get())};
   }
 
   std::vector<float> vertices_;
   std::vector<std::uint32_t> triangles_;
   std::vector<float> normals_;  ///< 3 per triangle
   std::unique_ptr<Accelerator> accelerator_;
+  int device_ = -1;                   ///< the CUDA device of the structure; -1 on the CPU
+  gpu::DeviceMemory device_normals_;  ///< normals_ on device_
 };
 
 /// OBJ or PLY (also .gz / .xz) as (vertices float32 (V, 3), triangles uint32 (T, 3)); invalid
@@ -223,6 +259,9 @@ NB_MODULE(_irgrid, m) {
     return names;
   });
   m.def("load", &python::load, nb::arg("path"));
+  m.def("has_cuda", &python::gpu::available, "Whether this build can take GPU arrays");
+  m.def("dlpack_layout", &python::dlpack_layout, nb::arg("array").noconvert());
+  m.def("stream_wait", &python::stream_wait, nb::arg("consumer"), nb::arg("producer"));
   nb::class_<BuildConfig>(m, "BuildConfig")
       .def(nb::init<>())
       .def_rw("lambda1", &BuildConfig::lambda1)
@@ -252,5 +291,36 @@ NB_MODULE(_irgrid, m) {
            nb::arg("tmax"))
       .def("count_intersections", &PyAccelerator::count_intersections, nb::arg("rays"),
            nb::arg("tmin"), nb::arg("tmax"))
-      .def("rebuild", &PyAccelerator::rebuild, nb::arg("vertices"));
+      .def("rebuild", &PyAccelerator::rebuild, nb::arg("vertices"))
+      // Rays in GPU memory (irgrid/_gpu.py): rows, count, tmin, tmin_value, tmax, tmax_value,
+      // stream, then the output pointers of the *_into forms.
+      .def(
+          "cast_rays_on_device",
+          [](const PyAccelerator& self, std::uintptr_t rows, std::size_t count, std::uintptr_t tmin,
+             float tmin_value, std::uintptr_t tmax, float tmax_value, std::uintptr_t stream) {
+            return self.cast_rays_on_device(
+                {rows, count, tmin, tmin_value, tmax, tmax_value, stream});
+          })
+      .def(
+          "test_occlusions_on_device",
+          [](const PyAccelerator& self, std::uintptr_t rows, std::size_t count, std::uintptr_t tmin,
+             float tmin_value, std::uintptr_t tmax, float tmax_value, std::uintptr_t stream) {
+            return self.test_occlusions_on_device(
+                {rows, count, tmin, tmin_value, tmax, tmax_value, stream});
+          })
+      .def(
+          "cast_rays_into",
+          [](const PyAccelerator& self, std::uintptr_t rows, std::size_t count, std::uintptr_t tmin,
+             float tmin_value, std::uintptr_t tmax, float tmax_value, std::uintptr_t stream,
+             std::uintptr_t t, std::uintptr_t prim, std::uintptr_t uv, std::uintptr_t normals) {
+            self.cast_rays_into({rows, count, tmin, tmin_value, tmax, tmax_value, stream},
+                                {t, prim, uv, normals});
+          })
+      .def("test_occlusions_into",
+           [](const PyAccelerator& self, std::uintptr_t rows, std::size_t count,
+              std::uintptr_t tmin, float tmin_value, std::uintptr_t tmax, float tmax_value,
+              std::uintptr_t stream, std::uintptr_t occluded) {
+             self.test_occlusions_into({rows, count, tmin, tmin_value, tmax, tmax_value, stream},
+                                       occluded);
+           });
 }
