@@ -41,8 +41,9 @@ void print_bench_table(const BenchResult& r) {
   }
   if (std::any_of(r.runs.begin(), r.runs.end(),
                   [](const BenchRun& run) { return run.host_mrays_per_s >= 0; })) {
-    fmt::print("MRays/s above: the kernel alone, rays and hits on the device; with the copies of "
-               "rays and hits (trace over host arrays):\n");
+    fmt::print(
+        "MRays/s above: the kernel alone, rays and hits on the device; with the copies of "
+        "rays and hits (trace over host arrays):\n");
     for (const auto& run : r.runs)
       fmt::print("{:>4}  {:<8} {:>10.2f} ms {:>10.2f} MRays/s\n", run.view, run.kind,
                  run.host_median_ms, run.host_mrays_per_s);

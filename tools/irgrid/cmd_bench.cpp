@@ -140,10 +140,10 @@ BenchRun measure(const Scene& scene, const HitReference* reference, const Accele
     run.median_ms = median(device->times_ms);
     const std::size_t differ = count_differing_hits(hits, device->hits);
     if (differ != 0)
-      throw Error(ErrorCode::internal,
-                  fmt::format("{} {} view {}: trace_device and trace disagree on {} of {} rays",
-                              to_string(accelerator.structure()), run.kind, run.view, differ,
-                              run.rays));
+      throw Error(
+          ErrorCode::internal,
+          fmt::format("{} {} view {}: trace_device and trace disagree on {} of {} rays",
+                      to_string(accelerator.structure()), run.kind, run.view, differ, run.rays));
   }
   run.mrays_per_s = per_us(run.median_ms);
   if (accelerator.counts_work() && !rays.empty()) {

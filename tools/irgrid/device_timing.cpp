@@ -16,8 +16,9 @@ namespace {
 
 void check(cudaError_t status, const char* what) {
   if (status != cudaSuccess)
-    throw Error(status == cudaErrorMemoryAllocation ? ErrorCode::out_of_memory : ErrorCode::internal,
-                fmt::format("bench device timing: {} failed: {}", what, cudaGetErrorString(status)));
+    throw Error(
+        status == cudaErrorMemoryAllocation ? ErrorCode::out_of_memory : ErrorCode::internal,
+        fmt::format("bench device timing: {} failed: {}", what, cudaGetErrorString(status)));
 }
 
 /// Device memory freed on every path out of time_trace_on_device.
