@@ -29,9 +29,9 @@ for scene in crytek-sponza/sponza.obj.xz conference/conference.obj.xz crown/crow
     status=$?
   # The table's rows; its two header lines only once.
   if [ -s "$table" ]; then
-    grep '^| ' "$out/$name-paper.txt" | grep -v '^| scene |' >>"$table" || true
+    grep '^| ' "$out/$name-paper.txt" | grep -v -e '^| scene |' -e '^| --- |' >>"$table" || true
   else
-    grep -E '^\| |^\| ---' "$out/$name-paper.txt" >>"$table" || true
+    grep '^| ' "$out/$name-paper.txt" >>"$table" || true
   fi
 done
 cat "$table"

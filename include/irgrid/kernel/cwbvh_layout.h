@@ -7,6 +7,7 @@
 // `ref_base`, and one `meta` byte per child says what the slot holds.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
 
@@ -42,10 +43,8 @@ struct CwbvhNode {
 };
 static_assert(sizeof(CwbvhNode) == 80 && alignof(CwbvhNode) == 4);
 
-/// The grid step 2^(exp - 127) of a biased exponent (1..254: a normal float).
-IRGRID_HD inline float cwbvh_step(std::uint8_t exp) {
-  // Built from the bits: exp << 23 is the float 2^(exp - 127) for normal exponents.
-  const std::uint32_t bits = std::uint32_t(exp) << 23;
+/// The float whose bits are `bits`.
+IRGRID_HD inline float cwbvh_as_float(std::uint32_t bits) {
 #if IRGRID_ON_DEVICE
   return __uint_as_float(bits);
 #else
@@ -55,10 +54,38 @@ IRGRID_HD inline float cwbvh_step(std::uint8_t exp) {
 #endif
 }
 
+/// The grid step 2^(exp - 127) of a biased exponent (1..254: a normal float).
+IRGRID_HD inline float cwbvh_step(std::uint32_t exp) {
+  return cwbvh_as_float(exp << 23);  // the float 2^(exp - 127) for normal exponents
+}
+
+/// A node as the traversal reads it: its 80 bytes as twenty 32-bit words, each field taken out
+/// by shifts at a constant offset, so that on the GPU the node stays in registers (a byte array
+/// indexed at run time would be placed in local memory).
+struct CwbvhNodeWords {
+  std::uint32_t w[20];
+
+  /// Byte k of the node (little endian, as the host wrote it).
+  IRGRID_HD std::uint32_t byte(int k) const { return (w[k >> 2] >> (8 * (k & 3))) & 0xFFu; }
+  IRGRID_HD float p(int a) const { return cwbvh_as_float(w[a]); }
+  IRGRID_HD std::uint32_t exp(int a) const { return byte(12 + a); }
+  IRGRID_HD std::uint32_t imask() const { return byte(15); }
+  IRGRID_HD std::uint32_t child_base() const { return w[4]; }
+  IRGRID_HD std::uint32_t ref_base() const { return w[5]; }
+  IRGRID_HD std::uint32_t meta(int s) const { return byte(24 + s); }
+  IRGRID_HD std::uint32_t q_lo(int a, int s) const { return byte(32 + kCwbvhWidth * a + s); }
+  IRGRID_HD std::uint32_t q_hi(int a, int s) const { return byte(56 + kCwbvhWidth * a + s); }
+};
+static_assert(sizeof(CwbvhNodeWords) == sizeof(CwbvhNode));
+static_assert(offsetof(CwbvhNode, exp) == 12 && offsetof(CwbvhNode, imask) == 15 &&
+              offsetof(CwbvhNode, child_base) == 16 && offsetof(CwbvhNode, ref_base) == 20 &&
+              offsetof(CwbvhNode, meta) == 24 && offsetof(CwbvhNode, q_lo) == 32 &&
+              offsetof(CwbvhNode, q_hi) == 56);
+
 /// The world coordinate of plane q on an axis with origin p and step `step`: q * step is exact
 /// (an 8-bit integer times a power of two, both normal), so the one rounding is the sum's, the
 /// same with or without fused multiply-add, on the host and the device.
-IRGRID_HD inline float cwbvh_plane(float p, std::uint8_t q, float step) {
+IRGRID_HD inline float cwbvh_plane(float p, std::uint32_t q, float step) {
   return p + float(q) * step;
 }
 

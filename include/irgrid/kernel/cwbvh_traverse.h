@@ -11,6 +11,7 @@
 #pragma once
 
 #include <cstdint>
+#include <cstring>
 
 #include "irgrid/kernel/cwbvh_layout.h"
 #include "irgrid/kernel/grid_traverse.h"
@@ -58,19 +59,21 @@ IRGRID_HD inline CwbvhRay make_cwbvh_ray(const Ray& ray) {
 
 /// Reads a node; on the device as five 16-byte loads through the read-only cache (the node
 /// array comes from cudaMalloc, and 80-byte nodes keep every node 16-byte aligned).
-IRGRID_HD IRGRID_ALWAYS_INLINE CwbvhNode load_cwbvh_node(const CwbvhNode* nodes,
-                                                         std::uint32_t index) {
+IRGRID_HD IRGRID_ALWAYS_INLINE CwbvhNodeWords load_cwbvh_node(const CwbvhNode* nodes,
+                                                              std::uint32_t index) {
+  CwbvhNodeWords node;
 #if IRGRID_ON_DEVICE
   static_assert(sizeof(CwbvhNode) == 5 * sizeof(uint4));
-  CwbvhNode node;
   const uint4* from = reinterpret_cast<const uint4*>(nodes + index);
-  uint4* to = reinterpret_cast<uint4*>(&node);
-  for (int k = 0; k < 5; ++k)
-    to[k] = __ldg(from + k);
-  return node;
+#pragma unroll
+  for (int k = 0; k < 5; ++k) {
+    const uint4 v = __ldg(from + k);
+    node.w[4 * k] = v.x, node.w[4 * k + 1] = v.y, node.w[4 * k + 2] = v.z, node.w[4 * k + 3] = v.w;
+  }
 #else
-  return nodes[index];
+  std::memcpy(node.w, nodes + index, sizeof node.w);
 #endif
+  return node;
 }
 
 /// The slab test of the ray against every child box of `node` within [t_lo, t_hi]; returns the
@@ -81,34 +84,45 @@ IRGRID_HD IRGRID_ALWAYS_INLINE CwbvhNode load_cwbvh_node(const CwbvhNode* nodes,
 /// Traversal", JCGT 2(2), 2013), so a triangle's box is never missed through rounding. A
 /// distance that is NaN (0 x infinity: a ray in a box plane, parallel to it) does not narrow the
 /// interval.
-IRGRID_HD IRGRID_ALWAYS_INLINE std::uint32_t intersect_cwbvh_children(const CwbvhNode& node,
+IRGRID_HD IRGRID_ALWAYS_INLINE std::uint32_t intersect_cwbvh_children(const CwbvhNodeWords& node,
                                                                       const CwbvhRay& r, float t_lo,
                                                                       float t_hi) {
-  // Axis by axis over the eight slots (the same operations per slot as slot by slot): on the
-  // CPU each line is one 8-wide vector operation, on the GPU the arrays live in registers.
+  // Axis by axis over the eight slots; every byte offset is a constant once the loops unroll.
   float t_near[kCwbvhWidth], t_far[kCwbvhWidth];
+#if IRGRID_ON_DEVICE
+#pragma unroll
+#endif
   for (int s = 0; s < kCwbvhWidth; ++s)
     t_near[s] = t_lo, t_far[s] = t_hi;
+#if IRGRID_ON_DEVICE
+#pragma unroll
+#endif
   for (int a = 0; a < 3; ++a) {
     const bool down = (r.octant >> a) & 1u;
-    const std::uint8_t* q_near = down ? node.q_hi[a] : node.q_lo[a];
-    const std::uint8_t* q_far = down ? node.q_lo[a] : node.q_hi[a];
-    const float p = node.p[a], step = cwbvh_step(node.exp[a]);
+    const float p = node.p(a), step = cwbvh_step(node.exp(a));
     const float org = r.org[a], inv_dir = r.inv_dir[a];
+#if IRGRID_ON_DEVICE
+#pragma unroll
+#endif
     for (int s = 0; s < kCwbvhWidth; ++s) {
-      const float t0 = (cwbvh_plane(p, q_near[s], step) - org) * inv_dir;
-      const float t1 = (cwbvh_plane(p, q_far[s], step) - org) * inv_dir;
+      const std::uint32_t lo = node.q_lo(a, s), hi = node.q_hi(a, s);
+      const float t0 = (cwbvh_plane(p, down ? hi : lo, step) - org) * inv_dir;
+      const float t1 = (cwbvh_plane(p, down ? lo : hi, step) - org) * inv_dir;
       t_near[s] = max_fast(t0, t_near[s]);
       t_far[s] = min_fast(t1, t_far[s]);
     }
   }
   std::uint32_t hits = 0;
+  const std::uint32_t imask = node.imask();
+#if IRGRID_ON_DEVICE
+#pragma unroll
+#endif
   for (int s = 0; s < kCwbvhWidth; ++s) {
-    const std::uint32_t meta = node.meta[s];
+    const std::uint32_t meta = node.meta(s);
     // 2^-21 = 8 ulp of relative slack on each end (NaN compares false: a miss).
     if (meta == 0 || !(t_near[s] - t_far[s] <= 0x1p-21f * (fabsf(t_near[s]) + fabsf(t_far[s]))))
       continue;
-    if ((node.imask >> s) & 1u)
+    if ((imask >> s) & 1u)
       hits |= 1u << (kCwbvhInnerBit + (std::uint32_t(s) ^ r.octant));
     else  // the unary triangle count, shifted to the leaf's first reference
       hits |= (meta >> 5) << (meta & 31u);
@@ -152,12 +166,13 @@ IRGRID_HD inline Hit traverse_cwbvh(const CwbvhView& bvh, const Ray& ray,
     const std::uint32_t slot = std::uint32_t(position) ^ r.octant;
     if (positions != 0) stack[size++] = cwbvh_group(base, positions, imask);
     const std::uint32_t index = base + std::uint32_t(cwbvh_popcount(imask & ((1u << slot) - 1u)));
-    const CwbvhNode node = load_cwbvh_node(bvh.nodes, index);
+    const CwbvhNodeWords node = load_cwbvh_node(bvh.nodes, index);
     if (counters) ++counters->cells;
     const std::uint32_t mask = intersect_cwbvh_children(node, r, ray.tmin, best.t);
     for (std::uint32_t triangles = mask & ((1u << kCwbvhInnerBit) - 1u); triangles != 0;
          triangles &= triangles - 1) {
-      const std::uint32_t id = bvh.refs[node.ref_base + std::uint32_t(cwbvh_lowest_bit(triangles))];
+      const std::uint32_t id =
+          bvh.refs[node.ref_base() + std::uint32_t(cwbvh_lowest_bit(triangles))];
       const TriangleVertices& tri = bvh.triangles[id];
       if (counters) ++counters->triangles;
       if (!intersect_watertight(shear, tri.p0, tri.p1, tri.p2, float(INFINITY), hit)) continue;
@@ -165,7 +180,7 @@ IRGRID_HD inline Hit traverse_cwbvh(const CwbvhView& bvh, const Ray& ray,
       best = {id, hit.t, hit.u, hit.v};
       if constexpr (kQuery == Query::any) return best;
     }
-    group = cwbvh_group(node.child_base, mask >> kCwbvhInnerBit, node.imask);
+    group = cwbvh_group(node.child_base(), mask >> kCwbvhInnerBit, node.imask());
   }
   return best.prim == kNoHit ? Hit{} : best;
 }
