@@ -103,6 +103,12 @@ TEST(Cwbvh, ReportsItsBuildAndMemory) {
   EXPECT_FALSE(stats.phase_ms[std::size_t(BuildPhase::upload)].has_value());
   EXPECT_GT(stats.build_ms, 0.0);
   EXPECT_FALSE(stats.grid.has_value());
+  ASSERT_TRUE(stats.bvh.has_value());
+  EXPECT_EQ(stats.bvh->nodes, host.nodes.size());
+  EXPECT_EQ(stats.bvh->references, host.refs.size());
+  EXPECT_EQ(stats.bvh->depth, host.depth);
+  EXPECT_EQ(stats.bvh->nodes_bytes + stats.bvh->references_bytes + stats.bvh->triangles_bytes,
+            stats.memory_bytes);
 }
 
 Scene hand_made(std::vector<Vec3f> vertices, std::vector<std::array<std::uint32_t, 3> > triangles) {

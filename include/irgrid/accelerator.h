@@ -116,6 +116,15 @@ struct GridStats {
   bool budget_limited = false;
 };
 
+/// What a CWBVH build made (Structure::cwbvh).
+struct BvhStats {
+  std::uint64_t nodes = 0;       ///< 80-byte compressed 8-wide nodes
+  std::uint64_t references = 0;  ///< triangle references of the leaves (spatial splits repeat some)
+  std::uint32_t depth = 0;       ///< node levels
+  /// Bytes of each array; BuildStats::memory_bytes is their sum.
+  std::uint64_t nodes_bytes = 0, references_bytes = 0, triangles_bytes = 0;
+};
+
 /// Time spent in one parallel primitive of a CPU grid build (AcceleratorOptions::
 /// profile_primitives), summed over its calls.
 struct PrimitiveTime {
@@ -133,6 +142,7 @@ struct BuildStats {
   std::optional<GridStats> grid;   ///< grids only
   /// With AcceleratorOptions::profile_primitives on the CPU: each primitive, longest first.
   std::vector<PrimitiveTime> primitives;
+  std::optional<BvhStats> bvh;  ///< cwbvh only
 };
 
 /// Work done for each ray (heat maps, statistics).

@@ -224,6 +224,12 @@ HostCwbvh build_cwbvh_timed(const TriangleMesh& mesh, const AcceleratorOptions& 
   stats.phase_ms[std::size_t(BuildPhase::bvh_build)] = bvh.embree_ms;
   stats.phase_ms[std::size_t(BuildPhase::bvh_compress)] = bvh.compress_ms;
   stats.memory_bytes = bvh.memory_bytes();
+  stats.bvh = BvhStats{bvh.nodes.size(),
+                       bvh.refs.size(),
+                       bvh.depth,
+                       bvh.nodes.size() * sizeof(CwbvhNode),
+                       bvh.refs.size() * sizeof(std::uint32_t),
+                       bvh.triangles.size() * sizeof(TriangleVertices)};
   if (options.on_phase) {
     options.on_phase(BuildPhase::bvh_build);
     options.on_phase(BuildPhase::bvh_compress);
