@@ -4,6 +4,10 @@
 
 #include <string>
 
+#if IRGRID_HAS_CUDA
+#include <cuda_runtime.h>
+#endif
+
 #include "cwbvh_test_support.h"
 #include "irgrid/accelerator.h"
 #include "irgrid/io/rays.h"
@@ -58,6 +62,31 @@ TEST(CwbvhCuda, SameHitsAsTheCpuOnBuiltinScenes) {
         EXPECT_EQ(differ, 0u) << spec << " " << load.what << ": rays whose work differs";
       }
     }
+  }
+#endif
+}
+
+TEST(CwbvhCuda, TraceDeviceGivesTheHitsOfTrace) {
+  IRGRID_SKIP_WITHOUT_GPU();
+#if IRGRID_HAS_CUDA && IRGRID_HAS_EMBREE
+  const Scene scene = load_scene("builtin:teapot-stadium:4000");
+  const auto gpu = make_accelerator(scene, Structure::cwbvh, kOnGpu);
+  for (const auto& load : testing::cwbvh_workloads(scene, *gpu, 64, 48)) {
+    const std::size_t n = load.rays.size();
+    Ray* d_rays = nullptr;
+    Hit* d_hits = nullptr;
+    ASSERT_EQ(cudaMalloc(&d_rays, n * sizeof(Ray)), cudaSuccess);
+    ASSERT_EQ(cudaMalloc(&d_hits, n * sizeof(Hit)), cudaSuccess);
+    ASSERT_EQ(cudaMemcpy(d_rays, load.rays.data(), n * sizeof(Ray), cudaMemcpyHostToDevice),
+              cudaSuccess);
+    gpu->trace_device(d_rays, d_hits, n, load.query, nullptr);
+    std::vector<Hit> device(n);
+    EXPECT_EQ(cudaMemcpy(device.data(), d_hits, n * sizeof(Hit), cudaMemcpyDeviceToHost),
+              cudaSuccess);
+    cudaFree(d_rays);
+    cudaFree(d_hits);
+    testing::expect_same_hits(testing::trace_all(*gpu, load.rays, load.query), device, load.query,
+                              "trace_device " + load.what);
   }
 #endif
 }
