@@ -286,6 +286,30 @@ TEST_F(Cli, BenchRebuildTimesEveryFrameOfEveryStructureAndValidatesTheLast) {
   EXPECT_EQ(json["rebuild"]["structures"][1]["structure"], "uniform");
 }
 
+TEST_F(Cli, BenchPaperTableComparesTheGridWithTheCwbvhOnThePapersRayKinds) {
+  const auto structures = irgrid::available_structures();
+  if (std::find(structures.begin(), structures.end(), irgrid::Structure::cwbvh) == structures.end())
+    GTEST_SKIP() << "no cwbvh (Embree) in this build";
+  const auto [r, json] = run_json(
+      "bench builtin:cornell --paper-table --views 0 --width 24 --height 16 --repeat 1 "
+      "--validate 300",
+      "paper.json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("| scene | view | triangles | structure | build ms | memory MiB | primary "
+                       "| ao | random |"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("| irregular@cpu / cwbvh@cpu |"), std::string::npos) << r.out;
+  ASSERT_EQ(json["compare"].size(), 2u);
+  EXPECT_EQ(json["compare"][1]["structure"], "cwbvh");
+  ASSERT_EQ(json["compare"][1]["runs"].size(), 3u);  // primary, ao, random
+  for (const auto& run : json["compare"][1]["runs"])
+    EXPECT_EQ(run["mismatches"], 0);
+  EXPECT_TRUE(json["compare"][1]["build_phases_ms"].contains("bvh build"));
+  EXPECT_FALSE(json["compare"][1].contains("config"));  // grid parameters: grids only
+  EXPECT_EQ(run("bench builtin:cornell --paper-table --rays nowhere.rays").code, 2);
+}
+
 TEST_F(Cli, BenchBuildRepeatCountsTheTimedBuilds) {
   const auto [r, json] = run_json(
       "bench builtin:cornell --kinds primary --views 0 --width 8 --height 8 --repeat 2 "
@@ -367,11 +391,12 @@ TEST_F(Cli, CompareRunsEveryStructureOnTheSameRays) {
     EXPECT_EQ(result["runs"][1]["rays"], json["compare"][0]["runs"][1]["rays"]);
     for (const auto& run : result["runs"])
       EXPECT_EQ(run["mismatches"], 0) << result["structure"] << " " << run["kind"];
-    // Grids report their work per ray; brute force and Embree do not count.
+    // Grids and the cwbvh report their work per ray; brute force and Embree do not count.
     const auto structure = result["structure"].get<std::string>();
-    const bool grid = structure.rfind("embree", 0) != 0 && structure != "brute";
-    EXPECT_EQ(result["runs"][0].contains("cells_per_ray"), grid) << result["structure"];
-    if (grid) {
+    const bool counts = structure.rfind("embree", 0) != 0 && structure != "brute";
+    const bool grid = counts && structure != "cwbvh";
+    EXPECT_EQ(result["runs"][0].contains("cells_per_ray"), counts) << result["structure"];
+    if (counts) {
       EXPECT_GE(result["runs"][0]["cells_per_ray"].get<double>(), 1.0);
       EXPECT_GT(result["runs"][0]["tests_per_ray"].get<double>(), 0.0);
     }

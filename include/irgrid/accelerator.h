@@ -26,10 +26,13 @@ namespace irgrid {
 /// The acceleration structures. The grids are built from the same phases: the irregular grid
 /// (Pérard-Gayot et al. 2017), the two-level grid (Kalojanov et al. 2011) and the uniform grid
 /// are irgrid's own; brute force tests every triangle; embree and embree_packets are Embree 3's
-/// BVH (one ray at a time, or packets of 8), when this build has Embree.
-enum class Structure { irregular, two_level, uniform, brute, embree, embree_packets };
+/// BVH (one ray at a time, or packets of 8), when this build has Embree. cwbvh is the compressed
+/// 8-wide BVH of Ylitie, Karras and Laine (HPG 2017), built with Embree's BVH builder (so only
+/// in builds with Embree) and traversed by irgrid's own code on the CPU and the GPU, with the
+/// grid's triangle test: the GPU baseline of the paper's comparison.
+enum class Structure { irregular, two_level, uniform, brute, embree, embree_packets, cwbvh };
 
-/// "irregular", "two-level", "uniform", "brute", "embree", "embree-packets".
+/// "irregular", "two-level", "uniform", "brute", "embree", "embree-packets", "cwbvh".
 const char* to_string(Structure structure) noexcept;
 /// The structure of that name (as to_string spells it). Throws Error{invalid_argument} naming
 /// the value and the structures of this build.
@@ -61,7 +64,9 @@ CpuWalk parse_cpu_walk(std::string_view name);
 /// "single", "interleaved", or "scalar" (automatic on a CPU without AVX2).
 const char* cpu_walk_in_use(CpuWalk walk);
 
-/// The phases of a grid build, in the order they run (Pérard-Gayot et al. 2017, §3-§5).
+/// The phases of a build, in the order they run: a grid's (Pérard-Gayot et al. 2017, §3-§5), then
+/// the CWBVH's (Embree's build, the compression, and on CUDA the upload of the host-built
+/// arrays).
 enum class BuildPhase {
   top_grid,
   top_level_references,
@@ -71,11 +76,14 @@ enum class BuildPhase {
   merge,
   voxel_map,
   expansion,
-  compress,  ///< with BuildConfig::compress only
+  compress,      ///< with BuildConfig::compress only
+  bvh_build,     ///< cwbvh: Embree's 8-wide SAH build with spatial splits (on the CPU)
+  bvh_compress,  ///< cwbvh: conversion to the compressed 80-byte nodes (on the CPU)
+  upload,        ///< cwbvh on CUDA: copying the host-built arrays to the device
 };
-inline constexpr std::size_t kBuildPhaseCount = 9;
+inline constexpr std::size_t kBuildPhaseCount = 12;
 /// "top grid", "top-level references", "octree levels", "empty space", "cells and references",
-/// "merge", "voxel map", "expansion", "compress".
+/// "merge", "voxel map", "expansion", "compress", "bvh build", "bvh compress", "upload".
 const char* to_string(BuildPhase phase) noexcept;
 
 /// Wall time of each grid build phase that ran, indexed by BuildPhase.
@@ -108,6 +116,15 @@ struct GridStats {
   bool budget_limited = false;
 };
 
+/// What a CWBVH build made (Structure::cwbvh).
+struct BvhStats {
+  std::uint64_t nodes = 0;       ///< 80-byte compressed 8-wide nodes
+  std::uint64_t references = 0;  ///< triangle references of the leaves (spatial splits repeat some)
+  std::uint32_t depth = 0;       ///< node levels
+  /// Bytes of each array; BuildStats::memory_bytes is their sum.
+  std::uint64_t nodes_bytes = 0, references_bytes = 0, triangles_bytes = 0;
+};
+
 /// Time spent in one parallel primitive of a CPU grid build (AcceleratorOptions::
 /// profile_primitives), summed over its calls.
 struct PrimitiveTime {
@@ -118,13 +135,14 @@ struct PrimitiveTime {
 /// Figures a structure reports about its last build (or rebuild).
 struct BuildStats {
   double build_ms = 0;  ///< wall time of the build, allocation included
-  /// Wall time of each grid build phase that ran, indexed by BuildPhase; empty for the phases
-  /// that did not run and for structures that are not grids.
+  /// Wall time of each build phase that ran, indexed by BuildPhase; empty for the phases that
+  /// did not run and for structures that report none (brute force, embree).
   PhaseTimes phase_ms{};
   std::uint64_t memory_bytes = 0;  ///< bytes of the final structure (its triangles included)
   std::optional<GridStats> grid;   ///< grids only
   /// With AcceleratorOptions::profile_primitives on the CPU: each primitive, longest first.
   std::vector<PrimitiveTime> primitives;
+  std::optional<BvhStats> bvh;  ///< cwbvh only
 };
 
 /// Work done for each ray (heat maps, statistics).

@@ -110,7 +110,7 @@ class Scene:
 
     vertices: (V, 3) float32 or float64; triangles: (T, 3) int32, uint32 or int64 indices.
     structure: "irregular" (default), "two-level", "uniform", "brute", "embree",
-    "embree-packets" (see irgrid.structures()). backend: "auto" (CUDA when a GPU is visible),
+    "embree-packets", "cwbvh" (see irgrid.structures()). backend: "auto" (CUDA when a GPU is visible),
     "cpu" or "cuda". build_options: the grid's construction parameters (lambda1, lambda2,
     min_cells, split_refs, alpha, cost_ratio, empty_aspect, expansion_passes,
     partial_expansion, skip_empty, compress, memory_budget).

@@ -19,7 +19,8 @@ constexpr std::array kStructureNames = {std::pair{Structure::irregular, "irregul
                                         std::pair{Structure::uniform, "uniform"},
                                         std::pair{Structure::brute, "brute"},
                                         std::pair{Structure::embree, "embree"},
-                                        std::pair{Structure::embree_packets, "embree-packets"}};
+                                        std::pair{Structure::embree_packets, "embree-packets"},
+                                        std::pair{Structure::cwbvh, "cwbvh"}};
 
 constexpr std::array kBackendNames = {std::pair{Backend::cpu, "cpu"},
                                       std::pair{Backend::cuda, "cuda"},
@@ -38,7 +39,10 @@ constexpr std::array<const char*, kBuildPhaseCount> kBuildPhaseNames = {"top gri
                                                                         "merge",
                                                                         "voxel map",
                                                                         "expansion",
-                                                                        "compress"};
+                                                                        "compress",
+                                                                        "bvh build",
+                                                                        "bvh compress",
+                                                                        "upload"};
 
 template <typename Enum, std::size_t N>
 const char* name_of(const std::array<std::pair<Enum, const char*>, N>& names, Enum value) {
@@ -81,6 +85,15 @@ Structure parse_structure(std::string_view name) {
   std::vector<const char*> names;
   for (const Structure s : available_structures())
     names.push_back(to_string(s));
+#if !IRGRID_HAS_EMBREE
+  for (const auto& [structure, spelling] : kStructureNames)
+    if (name == spelling)
+      throw Error(ErrorCode::invalid_argument,
+                  fmt::format("structure '{}' needs Embree, and this build has none (configure "
+                              "with -DIRGRID_ENABLE_EMBREE=ON and libembree-dev; this build has: "
+                              "{})",
+                              name, fmt::join(names, ", ")));
+#endif
   throw Error(
       ErrorCode::invalid_argument,
       fmt::format("unknown structure '{}' (this build has: {})", name, fmt::join(names, ", ")));
@@ -153,6 +166,7 @@ std::vector<Structure> available_structures() {
 #if IRGRID_HAS_EMBREE
   structures.push_back(Structure::embree);
   structures.push_back(Structure::embree_packets);
+  structures.push_back(Structure::cwbvh);  // built with Embree's BVH builder
 #endif
   structures.push_back(Structure::two_level);
   structures.push_back(Structure::uniform);
@@ -193,6 +207,12 @@ std::unique_ptr<Accelerator> make_accelerator(const TriangleMesh& mesh, Structur
     return make_grid_cpu(mesh, grid_options);
   }
 #if IRGRID_HAS_EMBREE
+  if (structure == Structure::cwbvh) {
+#if IRGRID_HAS_CUDA
+    if (backend == Backend::cuda) return make_cwbvh_cuda(mesh, options);
+#endif
+    return make_cwbvh_cpu(mesh, options);
+  }
   if (backend == Backend::cuda && options.backend == Backend::cuda)
     throw Error(ErrorCode::invalid_argument,
                 fmt::format("structure '{}' runs on the cpu backend only", to_string(structure)));

@@ -21,6 +21,14 @@ std::unique_ptr<Accelerator> make_grid_cpu(const TriangleMesh& mesh,
 /// otherwise one ray at a time (rtcIntersect1). `config` goes to rtcNewDevice.
 std::unique_ptr<Accelerator> make_embree_cpu(const TriangleMesh& mesh, bool packets,
                                              const std::string& config);
+/// The compressed wide BVH (baselines/cwbvh_build.h), traversed on the CPU with oneTBB.
+std::unique_ptr<Accelerator> make_cwbvh_cpu(const TriangleMesh& mesh,
+                                            const AcceleratorOptions& options);
+#if IRGRID_HAS_CUDA
+/// The same CWBVH, built on the host and traversed on the GPU.
+std::unique_ptr<Accelerator> make_cwbvh_cuda(const TriangleMesh& mesh,
+                                             const AcceleratorOptions& options);
+#endif
 #endif
 #if IRGRID_HAS_CUDA
 std::unique_ptr<Accelerator> make_brute_force_cuda(const TriangleMesh& mesh);

@@ -19,6 +19,7 @@
 #include "irgrid/io/rays.h"
 #include "irgrid/io/validate.h"
 #include "irgrid/system.h"
+#include "paper_table.h"
 #include "progress.h"
 
 namespace irgrid::cli {
@@ -29,7 +30,8 @@ struct BenchOptions : BenchSettings {
   std::string scene, format = "irgrid", json, compare;
   StructureOptions structure;
   bool any_hit = false;
-  int rebuild = 0;  ///< frames of `--rebuild`; 0: the ray benchmark
+  bool paper_table = false;  ///< print the paper's table (paper_table.h) after the results
+  int rebuild = 0;           ///< frames of `--rebuild`; 0: the ray benchmark
 };
 
 double median(std::vector<double> values) {
@@ -108,7 +110,7 @@ void timed_build(const Scene& scene, int repeat, Contender& c) {
               c.accelerator->build_stats(),
               {},
               {}};
-  if (c.accelerator->counts_work()) c.result.grid = c.options.grid;
+  if (is_grid(c.structure)) c.result.grid = c.options.grid;
   c.result.build.build_ms = median(times);
   fmt::print(stderr, "built {} on {}: {:.1f} ms (median of {} builds)\n", c.result.structure,
              c.result.backend, c.result.build.build_ms, times.size());
@@ -290,6 +292,13 @@ int run_bench(BenchOptions o) {
     o.config.count = std::uint64_t(o.config.width) * std::uint64_t(o.config.height);
   if (!o.json.empty()) check_writable(o.json);
   if (o.rebuild > 0) return run_rebuild_bench(o);
+  if (o.paper_table) {
+    if (!o.rays_file.empty())
+      throw Error(ErrorCode::invalid_argument,
+                  "--paper-table traces the standard primary, ao and random rays, not --rays");
+    if (o.kinds == BenchSettings{}.kinds) o.kinds = kPaperTableKinds;
+    if (o.compare.empty()) o.compare = kPaperTableStructures;
+  }
   // A ray file is read, and the standard rays planned, before the builds, so that bad input
   // fails at once.
   std::vector<Ray> file_rays;
@@ -317,6 +326,7 @@ int run_bench(BenchOptions o) {
   for (const auto& result : results)
     print_bench_table(result);
   if (results.size() > 1) print_comparison(results);
+  if (o.paper_table) print_paper_table(results);
   if (!o.json.empty()) write_bench_json(results, o.scene, o, o.json);
   std::uint64_t mismatches = 0;
   for (const auto& result : results)
@@ -379,6 +389,11 @@ void add_bench_command(CLI::App& app) {
       "--exact", o->exact,
       "Validate against the exact oracle (GMP rationals) instead of the double reference");
   cmd->add_option("--json", o->json, "Write results as JSON to this file");
+  cmd->add_flag("--paper-table", o->paper_table,
+                "Also print the paper's table (Markdown): build ms, memory and MRays/s of primary, "
+                "ao and random rays (the default --kinds here) for --compare (default "
+                "irregular,cwbvh; e.g. irregular@cuda,cwbvh@cuda), with the paper's 2017 GPU "
+                "figures for Sponza, Conference and Crown");
   cmd->callback([o] {
     const int code = run_bench(*o);
     if (code != 0) throw CLI::RuntimeError(code);

@@ -54,6 +54,15 @@ void print_statistics(const Scene& scene, const Accelerator& accelerator, const 
     for (const auto& [name, size] : grid_array_bytes(g))
       fmt::print("  bytes {:<22} {:>10.2f} MiB\n", name, double(size) / 1048576.0);
   }
+  if (stats.bvh) {
+    const BvhStats& b = *stats.bvh;
+    fmt::print("  {:<28} {:>10}\n  {:<28} {:>10}\n  {:<28} {:>10}\n", "nodes", b.nodes,
+               "references", b.references, "depth", b.depth);
+    for (const auto& [name, size] :
+         {std::pair{"nodes", b.nodes_bytes}, std::pair{"references", b.references_bytes},
+          std::pair{"triangles", b.triangles_bytes}})
+      fmt::print("  bytes {:<22} {:>10.2f} MiB\n", name, double(size) / 1048576.0);
+  }
   const double per_triangle =
       scene.triangle_count() ? double(stats.memory_bytes) / double(scene.triangle_count()) : 0;
   fmt::print("  memory {:>31.2f} MiB ({:.1f} bytes per triangle)\n",

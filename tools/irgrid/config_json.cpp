@@ -46,6 +46,13 @@ void add_build_stats_json(nlohmann::json& out, Structure structure, const BuildS
       out["counts"][name] = count;
     out["counts"]["peak_build_bytes"] = g.peak_build_bytes;
   }
+  if (stats.bvh) {
+    const BvhStats& b = *stats.bvh;
+    out["memory_breakdown_bytes"] = {{"nodes", b.nodes_bytes},
+                                     {"references", b.references_bytes},
+                                     {"triangles", b.triangles_bytes}};
+    out["counts"] = {{"nodes", b.nodes}, {"references", b.references}, {"depth", b.depth}};
+  }
   if (!grid) return;
   out["config"] = {{"lambda1", grid->lambda1},
                    {"lambda2", grid->lambda2},
