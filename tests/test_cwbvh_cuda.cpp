@@ -17,15 +17,6 @@
 namespace irgrid {
 namespace {
 
-bool gpu_missing() {
-  static const CudaStatus cuda = cuda_status();
-  return cuda.gpus.empty();
-}
-
-#define IRGRID_SKIP_WITHOUT_GPU() \
-  if (gpu_missing())              \
-  IRGRID_SKIP_UNLESS_REQUIRED("IRGRID_REQUIRE_GPU", "no GPU: " << cuda_status().status)
-
 const AcceleratorOptions kOnGpu = [] {
   AcceleratorOptions options;
   options.backend = Backend::cuda;

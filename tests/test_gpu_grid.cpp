@@ -25,15 +25,6 @@
 namespace irgrid {
 namespace {
 
-bool gpu_missing() {
-  static const CudaStatus cuda = cuda_status();
-  return cuda.gpus.empty();
-}
-
-#define IRGRID_SKIP_WITHOUT_GPU() \
-  if (gpu_missing())              \
-  IRGRID_SKIP_UNLESS_REQUIRED("IRGRID_REQUIRE_GPU", "no GPU: " << cuda_status().status)
-
 /// Shared scenes: $IRGRID_SHARED_SCENES (a bundle on another machine), else the build's path.
 std::vector<std::string> shared_scene_paths() {
   const char* env = std::getenv("IRGRID_SHARED_SCENES");
@@ -236,7 +227,7 @@ TEST(GpuGrid, RebuildsReuseThePoolAndEqualFreshBuilds) {
 }
 
 TEST(GpuGrid, CudaWithoutDeviceIsAClearError) {
-  if (!gpu_missing()) GTEST_SKIP() << "a GPU is present";
+  if (!testing::gpu_missing()) GTEST_SKIP() << "a GPU is present";
   AcceleratorOptions options;
   options.backend = Backend::cuda;
   try {

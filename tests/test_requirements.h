@@ -7,12 +7,20 @@
 #include <cstdlib>
 #include <string>
 
+#include "irgrid/system.h"
+
 namespace irgrid::testing {
 
 /// Whether the environment variable `name` is set to a value other than "" and "0".
 inline bool required(const char* name) {
   const char* value = std::getenv(name);
   return value != nullptr && *value != '\0' && std::string(value) != "0";
+}
+
+/// Whether no CUDA device is usable (no driver, a driver too old, a build without CUDA).
+inline bool gpu_missing() {
+  static const CudaStatus cuda = cuda_status();
+  return cuda.gpus.empty();
 }
 
 }  // namespace irgrid::testing
@@ -28,3 +36,8 @@ inline bool required(const char* name) {
     else                                                             \
       GTEST_SKIP() << message;                                       \
   } while (0)
+
+/// Skips (or, with IRGRID_REQUIRE_GPU set, fails) the current test when no GPU is usable.
+#define IRGRID_SKIP_WITHOUT_GPU()       \
+  if (::irgrid::testing::gpu_missing()) \
+  IRGRID_SKIP_UNLESS_REQUIRED("IRGRID_REQUIRE_GPU", "no GPU: " << ::irgrid::cuda_status().status)

@@ -205,9 +205,9 @@ class Accelerator {
   /// was built over (new vertex positions of the same topology: an animation frame), with the
   /// options it was made with. Reuses the structure's memory: grids take their buffers from the
   /// pool that earlier rebuilds filled (device memory on CUDA, host memory on the CPU), so
-  /// rebuilding a frame that needs no larger arrays allocates nothing (docs/api.md). Throws Error{invalid_argument} for
-  /// another triangle count, as check_mesh for a bad mesh; after an exception the accelerator
-  /// traces every ray as a miss until a rebuild succeeds.
+  /// rebuilding a frame that needs no larger arrays allocates nothing (docs/api.md). Throws
+  /// Error{invalid_argument} for another triangle count, as check_mesh for a bad mesh; after an
+  /// exception the accelerator traces every ray as a miss until a rebuild succeeds.
   virtual void rebuild(const TriangleMesh& mesh) = 0;
 
   /// Figures of the last build or rebuild.

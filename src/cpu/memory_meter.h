@@ -48,9 +48,23 @@ inline void advise_huge_pages(void* p, std::size_t bytes) noexcept {
 #endif
 }
 
+/// The allocators' construct: default-initialises instead of value-initialising, so a buffer of
+/// trivial elements is not zero-filled (the executor's contract leaves contents unspecified, and
+/// every phase writes before it reads), which saves a pass over memory per allocation.
+struct DefaultInitConstruct {
+  template <typename U>
+  void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <typename U, typename... Args>
+  void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+  }
+};
+
 /// std::allocator that reports to MemoryMeter.
 template <typename T>
-struct MeteredAllocator {
+struct MeteredAllocator : DefaultInitConstruct {
   using value_type = T;
   MeteredAllocator() = default;
   template <typename U>
@@ -75,17 +89,6 @@ struct MeteredAllocator {
       ::operator delete(p, std::align_val_t(kHugePageBytes));
     else
       std::allocator<T>().deallocate(p, n);
-  }
-  /// Default-initialises instead of value-initialising: a buffer of trivial elements is not
-  /// zero-filled (the executor's contract leaves contents unspecified, and every phase writes
-  /// before it reads), which saves a pass over memory per allocation.
-  template <typename U>
-  void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
-    ::new (static_cast<void*>(p)) U;
-  }
-  template <typename U, typename... Args>
-  void construct(U* p, Args&&... args) {
-    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
   }
   template <typename U>
   bool operator==(const MeteredAllocator<U>&) const noexcept {

@@ -17,7 +17,7 @@ namespace irgrid {
 /// carries one. The pool travels with the buffer: moving or swapping buffers moves their
 /// allocators too, so each block goes back to the pool that gave it.
 template <typename T>
-struct PooledAllocator {
+struct PooledAllocator : DefaultInitConstruct {
   using value_type = T;
   using propagate_on_container_move_assignment = std::true_type;
   using propagate_on_container_copy_assignment = std::true_type;
@@ -42,14 +42,6 @@ struct PooledAllocator {
     if (!pool) return MeteredAllocator<T>().deallocate(p, n);
     MemoryMeter::add(-std::int64_t(n * sizeof(T)));
     pool->release(p, n * sizeof(T));
-  }
-  template <typename U>
-  void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
-    ::new (static_cast<void*>(p)) U;
-  }
-  template <typename U, typename... Args>
-  void construct(U* p, Args&&... args) {
-    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
   }
   template <typename U>
   bool operator==(const PooledAllocator<U>& other) const noexcept {

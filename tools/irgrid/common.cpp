@@ -76,8 +76,9 @@ CLI::Validator whole_number(std::uint64_t least) {
 }
 
 void add_structure_options(CLI::App* command, StructureOptions& options) {
-  command->add_option("--structure", options.structure,
-                      "irregular (default), embree, embree-packets, cwbvh, two-level, uniform or brute");
+  command->add_option(
+      "--structure", options.structure,
+      "irregular (default), embree, embree-packets, cwbvh, two-level, uniform or brute");
   // Checked while parsing, so a missing GPU is reported before a large scene is loaded.
   command->add_option("--backend", options.backend, "cpu, cuda or auto")
       ->capture_default_str()
