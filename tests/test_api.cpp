@@ -164,9 +164,14 @@ TEST(Api, CpuRebuildsTakeEveryBlockFromThePool) {
   one_thread.execute([&] {
     const auto grid = make_accelerator(scene, Structure::irregular);
     EXPECT_GT(grid->build_stats().grid->fresh_allocations, 0u);
-    grid->rebuild(scene.mesh());  // fills the pool (the first build's cache was trimmed)
-    grid->rebuild(scene.mesh());
-    EXPECT_EQ(grid->build_stats().grid->fresh_allocations, 0u);
+    // The first rebuilds fill the pool (the first build's cache was trimmed); a block taken for a
+    // smaller class can make a later request of its own class allocate, once.
+    for (int frame = 0; frame < 3; ++frame)
+      grid->rebuild(scene.mesh());
+    for (int frame = 0; frame < 3; ++frame) {
+      grid->rebuild(scene.mesh());
+      EXPECT_EQ(grid->build_stats().grid->fresh_allocations, 0u) << "frame " << frame;
+    }
   });
   // With every thread, later rebuilds allocate only where a size class is busier than before.
   const auto grid = make_accelerator(scene, Structure::irregular);

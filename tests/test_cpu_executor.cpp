@@ -388,16 +388,22 @@ TEST(HostPool, ReleasedBlocksServeTheNextRequestsOfTheirClass) {
   EXPECT_EQ(pool.cached_bytes(), 0u);
 }
 
-TEST(HostPool, ARequestTakesOnlyABlockOfItsOwnClass) {
+TEST(HostPool, ARequestTakesACachedBlockUpToTwiceItsClass) {
   HostPool pool;
   void* big = pool.allocate(2560);
   pool.release(big, 2560);
-  void* smaller = pool.allocate(2000);  // class 2048, one below 2560
-  EXPECT_NE(smaller, big);
-  EXPECT_EQ(pool.fresh_allocations(), 2u);
-  pool.release(smaller, 2000);
+  void* smaller = pool.allocate(2000);  // class 2048: the cached 2560 block is within 2x
+  EXPECT_EQ(smaller, big);
+  EXPECT_EQ(pool.fresh_allocations(), 1u);
+  pool.release(smaller, 2000);  // goes back under its true class, 2560
+  EXPECT_EQ(pool.cached_bytes(), 2560u);
   EXPECT_EQ(pool.allocate(2100), big);  // 2100 rounds up to 2560
   pool.release(big, 2100);
+  void* tiny = pool.allocate(1000);  // class 1024: 2560 is more than twice as large
+  EXPECT_NE(tiny, big);
+  EXPECT_EQ(pool.fresh_allocations(), 2u);
+  pool.release(tiny, 1000);
+  EXPECT_EQ(pool.cached_bytes(), 2560u + 1024u);
 }
 
 TEST(HostPool, ExecutorBuffersComeFromThePoolAndGoBackToIt) {

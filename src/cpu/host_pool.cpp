@@ -40,10 +40,14 @@ void* HostPool::allocate(std::size_t bytes) {
   const std::size_t size = class_bytes(bytes);
   {
     const std::lock_guard lock(mutex_);
-    if (const auto found = cached_.find(size); found != cached_.end() && !found->second.empty()) {
+    // The smallest cached block of this class or of a larger one up to twice its size.
+    for (auto found = cached_.lower_bound(size); found != cached_.end() && found->first <= 2 * size;
+         ++found) {
+      if (found->second.empty()) continue;
       void* pointer = found->second.back();
+      if (found->first != size) larger_.emplace(pointer, found->first);
       found->second.pop_back();
-      cached_bytes_ -= size;
+      cached_bytes_ -= found->first;
       return pointer;
     }
     ++fresh_;
@@ -53,8 +57,12 @@ void* HostPool::allocate(std::size_t bytes) {
 
 void HostPool::release(void* pointer, std::size_t bytes) noexcept {
   if (!pointer) return;
-  const std::size_t size = class_bytes(bytes);
+  std::size_t size = class_bytes(bytes);
   const std::lock_guard lock(mutex_);
+  if (const auto found = larger_.find(pointer); found != larger_.end()) {
+    size = found->second;
+    larger_.erase(found);
+  }
   try {
     cached_[size].push_back(pointer);
     cached_bytes_ += size;

@@ -3,6 +3,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <map>
 #include <mutex>
 #include <unordered_map>
 #include <vector>
@@ -13,11 +14,12 @@ namespace irgrid {
 /// during a build go back to the pool instead of to the system, so a rebuild of a frame that
 /// needs no larger arrays finds its blocks cached: no page faults, no zero-filling by the
 /// kernel, no new mappings. Sizes round up to four classes per power of two (at most 25% unused
-/// per block), and a request takes only a block of its own class: a class then holds as many
-/// blocks as the most that any build held at once, so a rebuild allocates only when it holds
-/// more blocks of a class at once than every earlier build did (which the octree builder's
-/// threads can do by finishing in another order). Thread-safe: those threads grow their buffers
-/// concurrently.
+/// per block). A request takes the smallest cached block of its class or of a larger class up
+/// to twice its size (a block keeps its true class when it comes back): the phases of one build
+/// free blocks of one size and ask for slightly different ones, and a fresh block costs the
+/// kernel's page faults and zero-filling (a fifth of a Sponza build's time before this reuse).
+/// Blocks more than twice as large stay cached for requests of their size. Thread-safe: the
+/// octree builder's threads grow their buffers concurrently.
 class HostPool {
  public:
   HostPool() = default;
@@ -48,7 +50,8 @@ class HostPool {
   static void system_release(void* pointer, std::size_t class_size) noexcept;
 
   mutable std::mutex mutex_;
-  std::unordered_map<std::size_t, std::vector<void*>> cached_;  ///< free blocks by class size
+  std::map<std::size_t, std::vector<void*>> cached_;  ///< free blocks by class size
+  std::unordered_map<void*, std::size_t> larger_;     ///< blocks given out for a smaller class
   std::uint64_t fresh_ = 0, cached_bytes_ = 0;
 };
 
