@@ -352,6 +352,25 @@ TEST_F(Cli, BuildPrintsStatisticsAndJson) {
   EXPECT_EQ(run("build builtin:cornell --lambda1 -1").code, 2);
 }
 
+TEST_F(Cli, BuildFingerprintIsEqualForEqualGridsOnly) {
+  const auto fingerprint = [&](const std::string& command, const std::string& file) {
+    const auto [r, json] = run_json(command + " --fingerprint", file);
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.out.find("grid fingerprint"), std::string::npos) << r.out;
+    return r.code == 0 ? json["grid_fingerprint"].get<std::string>() : std::string();
+  };
+  const std::string first = fingerprint("--threads 1 build builtin:hairball:3000", "fp1.json");
+  EXPECT_EQ(first.size(), 16u);
+  // Deterministic whatever the thread count; another grid, another hash.
+  EXPECT_EQ(fingerprint("build builtin:hairball:3000", "fp2.json"), first);
+  EXPECT_NE(fingerprint("build builtin:hairball:3000 --expansion-passes 0", "fp3.json"), first);
+  const Result embree = run("build builtin:cornell --structure embree --fingerprint");
+  if (embree.err.find("not available") == std::string::npos) {
+    EXPECT_EQ(embree.code, 2);
+    EXPECT_NE(embree.err.find("--fingerprint"), std::string::npos) << embree.err;
+  }
+}
+
 TEST_F(Cli, BuildSaysWhenASmallSceneRaisesLambda2) {
   const auto [raised, raised_json] = run_json("build builtin:cornell", "raised.json");
   ASSERT_EQ(raised.code, 0) << raised.err;

@@ -1,5 +1,6 @@
 // `irgrid build`: builds a structure and prints its statistics (counts, bytes, phase times).
 #include <algorithm>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -11,6 +12,7 @@
 #include "config_json.h"
 #include "irgrid/error.h"
 #include "irgrid/io/output_file.h"
+#include "irgrid/kernel/grid_traverse.h"
 
 namespace irgrid::cli {
 namespace {
@@ -18,7 +20,34 @@ namespace {
 struct BuildOptions {
   std::string scene, json;
   StructureOptions structure;
+  bool fingerprint = false;
 };
+
+/// FNV-1a over `bytes` bytes at `data`, continuing from `hash`.
+std::uint64_t fnv1a(const void* data, std::size_t bytes, std::uint64_t hash) {
+  const auto* p = static_cast<const unsigned char*>(data);
+  for (std::size_t i = 0; i < bytes; ++i)
+    hash = (hash ^ p[i]) * 0x100000001b3ull;
+  return hash;
+}
+
+/// A hash of a CPU grid's cells, reference lists and voxel map: equal fingerprints mean the
+/// same grid bit for bit (what a change to the construction that must not change the grid is
+/// checked with).
+std::uint64_t grid_fingerprint(const Accelerator& accelerator) {
+  if (!is_grid(accelerator.structure()) || accelerator.backend() != Backend::cpu)
+    throw Error(ErrorCode::invalid_argument,
+                "--fingerprint needs a grid structure on --backend cpu");
+  const GridView grid = accelerator.grid_view();
+  const GridInfo& info = grid.info;
+  std::uint64_t hash = 0xcbf29ce484222325ull;
+  hash = fnv1a(&info.num_cells, sizeof(info.num_cells), hash);
+  hash = grid.compact_cells ? fnv1a(grid.compact_cells,
+                                    (std::size_t(info.num_cells) + 1) * sizeof(CompactCell), hash)
+                            : fnv1a(grid.cells, std::size_t(info.num_cells) * sizeof(Cell), hash);
+  hash = fnv1a(grid.refs, std::size_t(info.num_refs) * sizeof(std::uint32_t), hash);
+  return fnv1a(grid.entries, std::size_t(info.num_entries) * sizeof(Entry), hash);
+}
 
 nlohmann::json statistics_json(const Scene& scene, const std::string& scene_file,
                                const Accelerator& accelerator, const BuildConfig& grid) {
@@ -77,8 +106,12 @@ void run_build(const BuildOptions& o) {
   const Scene scene = load_scene_reporting(o.scene);
   const auto accelerator = build_reporting(scene, o.structure);
   print_statistics(scene, *accelerator, o.structure.grid);
+  const std::string fingerprint =
+      o.fingerprint ? fmt::format("{:016x}", grid_fingerprint(*accelerator)) : std::string();
+  if (o.fingerprint) fmt::print("  grid fingerprint {:>22}\n", fingerprint);
   if (o.json.empty()) return;
-  const auto statistics = statistics_json(scene, o.scene, *accelerator, o.structure.grid);
+  auto statistics = statistics_json(scene, o.scene, *accelerator, o.structure.grid);
+  if (o.fingerprint) statistics["grid_fingerprint"] = fingerprint;
   write_file_whole(o.json, statistics.dump(2) + '\n');
 }
 
@@ -90,6 +123,8 @@ void add_build_command(CLI::App& app) {
   cmd->add_option("scene", o->scene, "Scene file or builtin:NAME[:N]")->required();
   add_structure_options(cmd, o->structure);
   cmd->add_option("--json", o->json, "Write the statistics as JSON to this file");
+  cmd->add_flag("--fingerprint", o->fingerprint,
+                "Print a hash of the grid's cells, references and voxel map (CPU grids)");
   cmd->callback([o] { run_build(*o); });
 }
 
