@@ -39,27 +39,101 @@ IRGRID_HD inline void top_cells_of_box(const GridInfo& info, const Vec3<float>& 
   }
 }
 
-/// Calls visit(top cell index) for every top cell the triangle overlaps (padded exact test).
+/// Clips the convex polygon[0, count) to the half space axis >= bound (keep_above) or
+/// axis <= bound, in place; returns the new count (at most count + 1).
+IRGRID_HD inline int clip_polygon(Vec3<float>* polygon, int count, int axis, float bound,
+                                  bool keep_above) {
+  Vec3<float> clipped[7];
+  int kept = 0;
+  for (int k = 0; k < count; ++k) {
+    const Vec3<float>& a = polygon[k];
+    const Vec3<float>& b = polygon[k + 1 < count ? k + 1 : 0];
+    const bool a_in = keep_above ? a[axis] >= bound : a[axis] <= bound;
+    const bool b_in = keep_above ? b[axis] >= bound : b[axis] <= bound;
+    if (a_in) clipped[kept++] = a;
+    if (a_in != b_in) {
+      const float s = (bound - a[axis]) / (b[axis] - a[axis]);
+      clipped[kept++] = {a.x + s * (b.x - a.x), a.y + s * (b.y - a.y), a.z + s * (b.z - a.z)};
+    }
+  }
+  for (int k = 0; k < kept; ++k)
+    polygon[k] = clipped[k];
+  return kept;
+}
+
+/// The x extent [x_lo, x_hi] of triangle t clipped to the slab y in [y_lo, y_hi], z in
+/// [z_lo, z_hi] (Sutherland-Hodgman against the slab's four planes); false when they do not
+/// meet. A non-finite extent makes the caller's comparisons keep the whole row.
+IRGRID_HD inline bool x_extent_in_slab(const TriangleVertices& t, float y_lo, float y_hi,
+                                       float z_lo, float z_hi, float& x_lo, float& x_hi) {
+  // A triangle clipped by four planes keeps at most 3 + 4 vertices.
+  Vec3<float> polygon[7] = {t.p0, t.p1, t.p2};
+  int count = clip_polygon(polygon, 3, 1, y_lo, true);
+  count = clip_polygon(polygon, count, 1, y_hi, false);
+  count = clip_polygon(polygon, count, 2, z_lo, true);
+  count = clip_polygon(polygon, count, 2, z_hi, false);
+  if (count == 0) return false;
+  x_lo = x_hi = polygon[0].x;
+  for (int k = 1; k < count; ++k) {
+    x_lo = min_fast(polygon[k].x, x_lo);
+    x_hi = max_fast(polygon[k].x, x_hi);
+  }
+  return true;
+}
+
+/// Calls visit(top cell index) for every top cell the triangle overlaps (padded exact test), in
+/// ascending index order. A triangle whose box spans several cells along x has each row of cells
+/// (fixed y, z) cut down to the x extent of the triangle within the row's slab: a large triangle
+/// overlaps about its area's worth of the cells of its box, not their volume. Two clips per row:
+///   * against the padded slab grown by a quarter cell, the extent one cell wider on each side
+///     bounds the candidates: the cells left out lie a quarter cell or more from the triangle,
+///     so the exact test would reject them too, whatever its rounding;
+///   * against the unpadded slab (the cells' own cross-section), the extent [a, b] holds the x
+///     of triangle points within a few ulps of the slab (the clipped vertices are points of the
+///     triangle up to rounding, and the triangle is convex): a cell whose x range meets [a, b]
+///     holds such a point within its padded box (the padding is 64 ulps of the scene's largest
+///     coordinate), which the exact test, conservative, would accept: it is taken untested.
+/// The result is the cells the exact test alone gives.
 template <typename Visit>
 IRGRID_HD void for_each_top_cell_overlapped(const GridInfo& info, const Vec3<float>& top_size,
                                             const TriangleVertices& t, Visit&& visit) {
   std::int32_t lo[3], hi[3];
   top_cells_of_box(info, top_size, t, lo, hi);
+  const float inv_x = 1.0f / top_size[0];
   for (std::int32_t z = lo[2]; z <= hi[2]; ++z)
-    for (std::int32_t y = lo[1]; y <= hi[1]; ++y)
-      for (std::int32_t x = lo[0]; x <= hi[0]; ++x) {
-        const std::int32_t cell[3] = {x, y, z};
-        Vec3<float> cell_lo, cell_hi;
-        for (int a = 0; a < 3; ++a) {
-          cell_lo[a] = info.box_lo[a] + float(cell[a]) * top_size[a];
-          cell_hi[a] = info.box_lo[a] + float(cell[a] + 1) * top_size[a];
-        }
-        if (vertex_in_box(t, cell_lo, cell_hi, info.padding) ||
+    for (std::int32_t y = lo[1]; y <= hi[1]; ++y) {
+      const float y_lo = info.box_lo.y + float(y) * top_size.y,
+                  y_hi = info.box_lo.y + float(y + 1) * top_size.y,
+                  z_lo = info.box_lo.z + float(z) * top_size.z,
+                  z_hi = info.box_lo.z + float(z + 1) * top_size.z;
+      std::int32_t x_first = lo[0], x_last = hi[0];
+      bool some_sure = false;  // cells whose x range meets [sure_lo, sure_hi] overlap
+      float sure_lo = 0.f, sure_hi = 0.f;
+      if (hi[0] - lo[0] >= 3) {
+        const float y_margin = info.padding + 0.25f * top_size.y,
+                    z_margin = info.padding + 0.25f * top_size.z;
+        float x_lo, x_hi;
+        if (!x_extent_in_slab(t, y_lo - y_margin, y_hi + y_margin, z_lo - z_margin, z_hi + z_margin,
+                              x_lo, x_hi))
+          continue;
+        const float first = (x_lo - info.padding - info.box_lo.x) * inv_x - 1.f,
+                    last = (x_hi + info.padding - info.box_lo.x) * inv_x + 1.f;
+        // Comparisons written so that NaN keeps the whole row.
+        if (first > float(lo[0])) x_first = std::int32_t(min_fast(floorf(first), float(hi[0])));
+        if (last < float(hi[0])) x_last = std::int32_t(max_fast(floorf(last), float(lo[0])));
+        some_sure = x_extent_in_slab(t, y_lo, y_hi, z_lo, z_hi, sure_lo, sure_hi);
+      }
+      for (std::int32_t x = x_first; x <= x_last; ++x) {
+        const Vec3<float> cell_lo{info.box_lo.x + float(x) * top_size.x, y_lo, z_lo},
+            cell_hi{info.box_lo.x + float(x + 1) * top_size.x, y_hi, z_hi};
+        if ((some_sure && cell_lo.x <= sure_hi && cell_hi.x >= sure_lo) ||
+            vertex_in_box(t, cell_lo, cell_hi, info.padding) ||
             triangle_overlaps_box(t.p0, t.p1, t.p2, cell_lo, cell_hi, info.padding))
           visit((std::uint32_t(z) * std::uint32_t(info.top_dims[1]) + std::uint32_t(y)) *
                     std::uint32_t(info.top_dims[0]) +
                 std::uint32_t(x));
       }
+    }
 }
 
 inline Vec3<float> top_cell_size(const GridInfo& info) {
