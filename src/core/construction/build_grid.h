@@ -180,8 +180,9 @@ std::int32_t build_initial_grid(Exec& exec, GridArrays<Exec>& grid, const BuildC
     if (depth_first_applies(grid.info)) {
       try {
         auto octrees =
-            build_top_cell_octrees(exec, grid.info, triangles, std::move(pairs),
+            build_top_cell_octrees(exec, grid.info, triangles, pairs,
                                    depths.refs_per_top_cell.data(), rule, grid.budget_bytes);
+        pairs = {};
         clock.lap(BuildPhase::octree_levels);
         plan_empty_space();
         assemble_top_cell_octrees(exec, octrees, grid);
@@ -189,8 +190,8 @@ std::int32_t build_initial_grid(Exec& exec, GridArrays<Exec>& grid, const BuildC
         return depths.deepest_lambda2;
       } catch (const depth_first_detail::BudgetExceeded&) {
         // The complete octrees do not fit: the level-by-level build finds the last level that
-        // does, as the CUDA build would. The depth-first build consumed the pairs.
-        pairs = emit_top_level_refs(exec, triangles, grid.info);
+        // does, as the CUDA build would, from the same pairs (sorted by top cell now, which
+        // leaves every list it makes as it was).
       }
     }
   }

@@ -192,13 +192,92 @@ class TopCellBuilder {
 
 }  // namespace depth_first_detail
 
+namespace depth_first_detail {
+
+/// Whether a pilot predicts that the complete octrees pass `budget`. It builds the octrees of a
+/// sample of top cells (those holding the pairs at kPilotSamples evenly spaced ranks of the
+/// sorted pairs: a cell is picked in proportion to its references), each stopped once it takes
+/// kPilotSlack times its share of the budget (its share of the pairs) or 1/1024 of the budget,
+/// and projects their bytes per pair onto all pairs. Cells holding more than 4096 pairs are left
+/// out of the sample, and the pilot runs only where the octrees would pass the budget if they
+/// held 16 times the top level. On geometry whose octrees would pass the
+/// budget many times over (large overlapping triangles) the depth-first build would otherwise
+/// run until its totals pass the budget, and the level-by-level build then repeat that work; the
+/// pilot's work stays within 1/16 of the budget's. A wrong prediction costs time only: both
+/// builds give the same grid.
+template <typename Exec>
+bool pilot_predicts_budget_exceeded(Exec& exec, const GridInfo& info,
+                                    const TriangleVertices* triangles, const OctreeRule& rule,
+                                    const std::uint32_t* sorted_cells, const std::uint32_t* tri,
+                                    const std::uint32_t* first_tri,
+                                    const std::uint32_t* refs_per_top, std::uint32_t pairs,
+                                    std::uint64_t budget) {
+  constexpr std::uint32_t kPilotSamples = 64;
+  constexpr std::uint64_t kPilotSlack = 4, kPilotCellBudgetShare = 1024;
+  // A node's work is a test per triangle whatever it outputs: fuller cells are left out, so
+  // that the budget bounds the pilot's work too (a stack of copies fills a few cells only).
+  constexpr std::uint32_t kPilotMaxCellRefs = 4096;
+  // Real scenes' octrees hold a few times the top-level pairs (Sponza: 5 times, in a seventh of
+  // its budget): the pilot runs only where 16 times the top level would pass the budget.
+  const std::uint32_t top_cells = std::uint32_t(info.top_dims[0]) *
+                                  std::uint32_t(info.top_dims[1]) * std::uint32_t(info.top_dims[2]);
+  if (budget == 0 || pairs < 64 * kPilotSamples ||
+      16 * octree_peak_bytes(top_cells, top_cells, pairs) <= budget)
+    return false;
+  // Weighted as picked: a cell met at several ranks counts as often.
+  std::vector<std::uint32_t> sample, weight;
+  std::uint32_t picked = 0;
+  for (std::uint32_t k = 0; k < kPilotSamples; ++k) {
+    const std::uint32_t cell = sorted_cells[std::uint64_t(2 * k + 1) * pairs / (2 * kPilotSamples)];
+    if (refs_per_top[cell] > kPilotMaxCellRefs) continue;
+    ++picked;
+    if (!sample.empty() && sample.back() == cell) {
+      ++weight.back();
+    } else {
+      sample.push_back(cell);
+      weight.push_back(1);
+    }
+  }
+  if (picked == 0) return false;
+  std::vector<double> bytes_per_pair(sample.size());
+  const std::uint32_t levels = std::uint32_t(info.shift) + 1;
+  exec.for_each("octree pilot", sample.size(), [&](std::size_t k) {
+    const std::uint32_t t = sample[k], count = refs_per_top[t];
+    ChunkOctrees<Exec> chunk;
+    chunk.levels.assign(levels, exec.template allocate<Entry>(0));
+    chunk.levels[0].resize(1);
+    chunk.cells = exec.template allocate<Cell>(0);
+    chunk.refs = exec.template allocate<std::uint32_t>(0);
+    RunningTotals totals;
+    totals.budget = std::min(kPilotSlack * std::uint64_t(double(budget) * count / pairs),
+                             budget / kPilotCellBudgetShare);
+    totals.entries = 1;
+    TopCellBuilder<Exec> builder(info, triangles, rule, chunk, totals);
+    try {
+      builder.build(top_cell_corner(info, t), rule.depths[t], tri + first_tri[t], count, 0);
+    } catch (const BudgetExceeded&) {  // the totals then hold what it built up to the stop
+    }
+    bytes_per_pair[k] =
+        double(octree_peak_bytes(totals.entries, totals.cells, totals.refs)) / double(count);
+  });
+  double mean = 0;
+  for (std::size_t k = 0; k < sample.size(); ++k)
+    mean += weight[k] * bytes_per_pair[k];
+  mean /= picked;
+  return mean * pairs > double(budget);
+}
+
+}  // namespace depth_first_detail
+
 /// Builds the octree of every top cell (pass 1 of 2). `pairs` are the top-level (top cell,
-/// triangle) pairs, `refs_per_top` their count per top cell. Requires an executor whose buffers
-/// grow on the host (kDepthFirstOctrees) and depth_first_applies(info). Throws BudgetExceeded
-/// when the octrees would not fit `budget` (construction_budget).
+/// triangle) pairs, sorted here by top cell (stably: each cell's triangles ascend) and left valid
+/// for build_octree_levels, `refs_per_top` their count per top cell. Requires an executor whose
+/// buffers grow on the host (kDepthFirstOctrees) and depth_first_applies(info). Throws
+/// BudgetExceeded when the octrees would not fit `budget` (construction_budget).
 template <typename Exec>
 TopCellOctrees<Exec> build_top_cell_octrees(Exec& exec, const GridInfo& info,
-                                            const TriangleVertices* triangles, RefPairs<Exec> pairs,
+                                            const TriangleVertices* triangles,
+                                            RefPairs<Exec>& pairs,
                                             const std::uint32_t* refs_per_top,
                                             const OctreeRule& rule, std::uint64_t budget) {
   TopCellOctrees<Exec> out;
@@ -210,12 +289,15 @@ TopCellOctrees<Exec> build_top_cell_octrees(Exec& exec, const GridInfo& info,
   // Each top cell's triangles, ascending: the pairs come triangle-major and the sort is stable.
   exec.sort_pairs("octree top-cell lists", pairs.cell.data(), pairs.tri.data(), pairs.count,
                   std::max(1, int(std::bit_width(n))));
-  pairs.cell = {};
   std::vector<std::uint32_t> first_tri(n);
   exec.exclusive_scan("octree top-cell lists", refs_per_top, first_tri.data(), n);
   out.chunks.resize((n + per_chunk - 1) / per_chunk);
   out.cells_per_top.resize(n);
   out.refs_per_top.resize(n);
+  if (depth_first_detail::pilot_predicts_budget_exceeded(
+          exec, info, triangles, rule, pairs.cell.data(), pairs.tri.data(), first_tri.data(),
+          refs_per_top, pairs.count, budget))
+    throw depth_first_detail::BudgetExceeded{};
   depth_first_detail::RunningTotals totals;
   totals.budget = budget;
   totals.entries = n;  // the top level's entries, counted as the level-by-level build does
