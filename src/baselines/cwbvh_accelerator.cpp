@@ -1,9 +1,9 @@
 // The compressed wide BVH on the CPU: built by baselines/cwbvh_build.h, traversed one ray at a
 // time per oneTBB task by the same header code as the GPU kernel (irgrid/kernel/cwbvh_traverse.h).
 #include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include "baselines/cwbvh_build.h"
+#include "cpu/parallel.h"
 #include "cpu/structures.h"
 #include "irgrid/kernel/cwbvh_traverse.h"
 
@@ -54,13 +54,14 @@ class CwbvhCpu final : public Accelerator {
   void run(std::span<const Ray> rays, std::span<Hit> hits, std::span<RayWork> work,
            Query query) const {
     const CwbvhView view = bvh_.view();
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rays.size(), 64), [&](const auto& range) {
-      for (std::size_t i = range.begin(); i != range.end(); ++i) {
-        RayWork* w = work.empty() ? nullptr : &work[i];
-        hits[i] = query == Query::closest ? trace_one<Query::closest>(view, rays[i], w)
-                                          : trace_one<Query::any>(view, rays[i], w);
-      }
-    });
+    irgrid::parallel_for(
+        tbb::blocked_range<std::size_t>(0, rays.size(), 64), [&](const auto& range) {
+          for (std::size_t i = range.begin(); i != range.end(); ++i) {
+            RayWork* w = work.empty() ? nullptr : &work[i];
+            hits[i] = query == Query::closest ? trace_one<Query::closest>(view, rays[i], w)
+                                              : trace_one<Query::any>(view, rays[i], w);
+          }
+        });
   }
 
   AcceleratorOptions options_;

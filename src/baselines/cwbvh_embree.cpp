@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "baselines/wide_tree.h"
+#include "cpu/parallel.h"
 #include "cpu/structures.h"
 #include "irgrid/error.h"
 #include "irgrid/kernel/cwbvh_traverse.h"
@@ -34,21 +35,30 @@ void set_bounds(RTCBounds& out, const BoxF& box) {
 
 struct BuildContext {
   std::span<const TriangleVertices> triangles;
+  TsanHandOff* hand_off;  ///< Embree's builder threads, made visible to ThreadSanitizer
 };
 
-void* create_node(RTCThreadLocalAllocator alloc, unsigned count, void*) {
+/// The callback's task of the build, for ThreadSanitizer (user: the BuildContext, or null).
+TsanTask build_task(void* user) {
+  return TsanTask(user ? static_cast<BuildContext*>(user)->hand_off : nullptr);
+}
+
+void* create_node(RTCThreadLocalAllocator alloc, unsigned count, void* user) {
+  const TsanTask task = build_task(user);
   auto* node = new (rtcThreadLocalAlloc(alloc, sizeof(WideInner), 16)) WideInner;
   node->count = count;
   return node;
 }
 
-void set_children(void* node, void** children, unsigned count, void*) {
+void set_children(void* node, void** children, unsigned count, void* user) {
+  const TsanTask task = build_task(user);
   auto* inner = static_cast<WideInner*>(node);
   for (unsigned k = 0; k < count; ++k)
     inner->children[k] = static_cast<const WideNode*>(children[k]);
 }
 
-void set_node_bounds(void* node, const RTCBounds** bounds, unsigned count, void*) {
+void set_node_bounds(void* node, const RTCBounds** bounds, unsigned count, void* user) {
+  const TsanTask task = build_task(user);
   auto* inner = static_cast<WideInner*>(node);
   for (unsigned k = 0; k < count; ++k)
     inner->boxes[k] = box_of(*bounds[k]);
@@ -82,7 +92,8 @@ WideNode* make_leaves(RTCThreadLocalAllocator alloc, const RTCBuildPrimitive* pr
 }
 
 void* create_leaf(RTCThreadLocalAllocator alloc, const RTCBuildPrimitive* prims, size_t count,
-                  void*) {
+                  void* user) {
+  const TsanTask task = build_task(user);
   return make_leaves(alloc, prims, count);
 }
 
@@ -101,6 +112,7 @@ void grow_by_cut(BoxF& box, const Vec3<float>& c, const Vec3<float>& a, const Ve
 /// are padded by their rounding error, so the two boxes hold every point of the part.
 void split_primitive(const RTCBuildPrimitive* prim, unsigned dim, float position, RTCBounds* left,
                      RTCBounds* right, void* user) {
+  const TsanTask task = build_task(user);
   const auto& tri = static_cast<const BuildContext*>(user)->triangles[prim->primID];
   const Vec3<float> v[3] = {tri.p0, tri.p1, tri.p2};
   const BoxF empty = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
@@ -173,7 +185,8 @@ HostCwbvh build_cwbvh(const TriangleMesh& mesh, const std::string& embree_config
     const BoxF box = triangle_box(out.triangles[i]);
     prims[i] = {box.lo.x, box.lo.y, box.lo.z, 0u, box.hi.x, box.hi.y, box.hi.z, std::uint32_t(i)};
   }
-  BuildContext context{out.triangles};
+  TsanHandOff hand_off;
+  BuildContext context{out.triangles, &hand_off};
   RTCBuildArguments args = rtcDefaultBuildArguments();
   args.buildQuality = RTC_BUILD_QUALITY_HIGH;
   args.maxBranchingFactor = kCwbvhWidth;
@@ -191,6 +204,7 @@ HostCwbvh build_cwbvh(const TriangleMesh& mesh, const std::string& embree_config
   args.splitPrimitive = split_primitive;
   args.userPtr = &context;
   const auto* root = static_cast<const WideNode*>(rtcBuildBVH(&args));
+  hand_off.all_tasks_ended();
   if (!root || rtcGetDeviceError(embree.device) != RTC_ERROR_NONE)
     throw_embree_error(embree.device, "rtcBuildBVH");
   out.embree_ms = elapsed_ms<std::chrono::steady_clock>(start);

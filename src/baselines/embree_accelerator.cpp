@@ -11,9 +11,9 @@
 #include <embree3/rtcore.h>
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 #include <xmmintrin.h>
 
+#include "cpu/parallel.h"
 #include "cpu/structures.h"
 #include "irgrid/error.h"
 
@@ -98,24 +98,26 @@ class EmbreeCpu final : public Accelerator {
 
   void trace(std::span<const Ray> rays, std::span<Hit> hits, Query query) const override {
     check_trace_spans(rays, hits);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rays.size(), 64), [&](const auto& range) {
-      const DenormalsAreZero denormals_are_zero;
-      RTCIntersectContext context;
-      rtcInitIntersectContext(&context);
-      if (packets_) {
-        context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-        for (std::size_t first = range.begin(); first < range.end(); first += kPacket)
-          trace_packet(rays, hits, first, std::min(kPacket, range.end() - first), query, context);
-        return;
-      }
-      for (std::size_t i = range.begin(); i != range.end(); ++i) {
-        float shift;
-        const Ray ray = embree_ray(rays[i], shift);
-        hits[i] = !embree_accepts(ray)      ? Hit{}
-                  : query == Query::closest ? intersect(ray, shift, context)
-                                            : occluded(ray, context);
-      }
-    });
+    irgrid::parallel_for(
+        tbb::blocked_range<std::size_t>(0, rays.size(), 64), [&](const auto& range) {
+          const DenormalsAreZero denormals_are_zero;
+          RTCIntersectContext context;
+          rtcInitIntersectContext(&context);
+          if (packets_) {
+            context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+            for (std::size_t first = range.begin(); first < range.end(); first += kPacket)
+              trace_packet(rays, hits, first, std::min(kPacket, range.end() - first), query,
+                           context);
+            return;
+          }
+          for (std::size_t i = range.begin(); i != range.end(); ++i) {
+            float shift;
+            const Ray ray = embree_ray(rays[i], shift);
+            hits[i] = !embree_accepts(ray)      ? Hit{}
+                      : query == Query::closest ? intersect(ray, shift, context)
+                                                : occluded(ray, context);
+          }
+        });
   }
 
  private:

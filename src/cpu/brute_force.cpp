@@ -2,8 +2,8 @@
 #include <chrono>
 
 #include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
+#include "cpu/parallel.h"
 #include "cpu/structures.h"
 #include "irgrid/kernel/watertight.h"
 
@@ -25,10 +25,11 @@ class BruteForceCpu final : public Accelerator {
 
   void trace(std::span<const Ray> rays, std::span<Hit> hits, Query query) const override {
     check_trace_spans(rays, hits);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rays.size(), 16), [&](const auto& range) {
-      for (std::size_t i = range.begin(); i != range.end(); ++i)
-        hits[i] = trace_one(rays[i], query);
-    });
+    irgrid::parallel_for(tbb::blocked_range<std::size_t>(0, rays.size(), 16),
+                         [&](const auto& range) {
+                           for (std::size_t i = range.begin(); i != range.end(); ++i)
+                             hits[i] = trace_one(rays[i], query);
+                         });
   }
 
  private:

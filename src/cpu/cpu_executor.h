@@ -2,8 +2,6 @@
 #pragma once
 
 #include <oneapi/tbb/blocked_range.h>
-#include <oneapi/tbb/parallel_for.h>
-#include <oneapi/tbb/parallel_scan.h>
 
 #include <chrono>
 #include <cstddef>
@@ -16,6 +14,7 @@
 
 #include "cpu/host_memory.h"
 #include "cpu/memory_meter.h"
+#include "cpu/parallel.h"
 #include "cpu/pooled_allocator.h"
 #include "cpu/radix_sort.h"
 
@@ -71,11 +70,11 @@ class CpuExecutor {
   template <typename F>
   void for_each(const char* name, std::size_t n, F&& body) const {
     const PhaseTimer timer(*this, name);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n),
-                      [&](const tbb::blocked_range<std::size_t>& range) {
-                        for (std::size_t i = range.begin(); i != range.end(); ++i)
-                          body(i);
-                      });
+    irgrid::parallel_for(tbb::blocked_range<std::size_t>(0, n),
+                         [&](const tbb::blocked_range<std::size_t>& range) {
+                           for (std::size_t i = range.begin(); i != range.end(); ++i)
+                             body(i);
+                         });
   }
 
   /// out[i] = in[0] + ... + in[i - 1] for i in [0, n); returns the sum of all n inputs
@@ -87,7 +86,7 @@ class CpuExecutor {
                   "exclusive_scan is exact (deterministic) on integers only");
     const PhaseTimer timer(*this, name);
     if (n < parallel_scan_min_n) return sequential_exclusive_scan(in, out, 0, n, T(0), true);
-    return tbb::parallel_scan(
+    return irgrid::parallel_scan(
         tbb::blocked_range<std::size_t>(0, n, scan_grain_size), T(0),
         [in, out](const tbb::blocked_range<std::size_t>& range, T running, bool is_final) {
           return sequential_exclusive_scan(in, out, range.begin(), range.end(), running, is_final);

@@ -6,11 +6,11 @@
 #include <vector>
 
 #include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include "api/grid_accelerator_base.h"
 #include "core/construction/compress_cells.h"
 #include "cpu/cpu_executor.h"
+#include "cpu/parallel.h"
 #include "cpu/structures.h"
 #include "cpu/walk_policy.h"
 #include "irgrid/error.h"
@@ -92,7 +92,7 @@ class GridCpu final : public GridAcceleratorBase {
   template <Query kQuery, typename CellT>
   void trace_query(std::span<const Ray> rays, std::span<Hit> hits, std::span<RayWork> work) const {
     const GridView view = this->view();
-    tbb::parallel_for(
+    irgrid::parallel_for(
         tbb::blocked_range<std::size_t>(0, rays.size(), 1024), [&](const auto& range) {
           const std::size_t first = range.begin(), count = range.size();
           trace_chunk<kQuery, CellT>(view, info_.memory_bytes, options_.cpu_walk,

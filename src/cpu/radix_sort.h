@@ -3,7 +3,6 @@
 #pragma once
 
 #include <oneapi/tbb/blocked_range.h>
-#include <oneapi/tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cstddef>
@@ -15,6 +14,7 @@
 #include <vector>
 
 #include "cpu/memory_meter.h"
+#include "cpu/parallel.h"
 #include "irgrid/error.h"
 
 namespace irgrid::detail {
@@ -37,11 +37,11 @@ struct BlockPartition {
 /// Calls body(block) for every block of `partition`, in parallel.
 template <typename F>
 void for_each_block(const BlockPartition& partition, F&& body) {
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, partition.count, 1),
-                    [&](const tbb::blocked_range<std::size_t>& range) {
-                      for (std::size_t block = range.begin(); block != range.end(); ++block)
-                        body(block);
-                    });
+  irgrid::parallel_for(tbb::blocked_range<std::size_t>(0, partition.count, 1),
+                       [&](const tbb::blocked_range<std::size_t>& range) {
+                         for (std::size_t block = range.begin(); block != range.end(); ++block)
+                           body(block);
+                       });
 }
 
 /// Below this many pairs std::stable_sort beats the radix sort's fixed cost per pass.
