@@ -338,6 +338,18 @@ TEST_F(LoaderTest, PlyAsciiWithExtraPropertiesAndLists) {
   EXPECT_EQ(scene.report.unknown_statements, 0u);
 }
 
+TEST_F(LoaderTest, PlyElementWithoutPropertiesTakesNoTimeWhateverItsCount) {
+  // Found by fuzz_ply: an element of 1.7e17 records without properties spun for minutes.
+  const Scene scene = load("empty-records.ply",
+                           "ply\nformat ascii 1.0\nelement marker 177777757777777777\n"
+                           "element vertex 3\nproperty float x\nproperty float y\n"
+                           "property float z\nelement face 1\n"
+                           "property list uchar int vertex_indices\nend_header\n"
+                           "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+  EXPECT_EQ(scene.report.vertices_read, 3u);
+  EXPECT_EQ(scene.report.triangles_read, 1u);
+}
+
 TEST_F(LoaderTest, PlyAsciiMalformedNumberNamesLine) {
   const Error error = load_error("bad.ply",
                                  "ply\nformat ascii 1.0\nelement vertex 2\n"

@@ -412,6 +412,8 @@ void PlyBodyReader::skip_property(const PlyProperty& property, Cursor& cursor,
 
 template <typename Cursor>
 void PlyBodyReader::skip_element(const PlyElement& element, Cursor& cursor, ReadContext& context) {
+  // Records without properties take no bytes: a count of 10^17 must not spin through them.
+  if (element.properties.empty()) return;
   for (context.record = 0; context.record < element.count; ++context.record)
     for (const auto& property : element.properties)
       skip_property(property, cursor, context);
