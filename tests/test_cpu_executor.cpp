@@ -406,6 +406,32 @@ TEST(HostPool, ARequestTakesACachedBlockUpToTwiceItsClass) {
   EXPECT_EQ(pool.cached_bytes(), 2560u + 1024u);
 }
 
+TEST(HostPool, ACacheLimitReturnsTheLeastRecentlyFreedBlocksFirst) {
+  HostPool pool;
+  pool.set_cache_limit(12288 + 5120);
+  void* older = pool.allocate(4096);
+  void* newer = pool.allocate(5120);
+  pool.release(older, 4096);
+  pool.release(newer, 5120);
+  EXPECT_EQ(pool.cached_bytes(), 4096u + 5120u);  // within the limit: both stay
+  // A fresh block of a class neither serves would pass the limit: the older block goes.
+  void* other = pool.allocate(12000);
+  EXPECT_EQ(pool.fresh_allocations(), 3u);
+  EXPECT_EQ(pool.cached_bytes(), 5120u);
+  EXPECT_EQ(pool.allocate(5120), newer);
+  // Blocks in use are never taken back: the pool holds more than the limit while they live.
+  EXPECT_EQ(pool.cached_bytes(), 0u);
+  pool.release(other, 12000);
+  pool.release(newer, 5120);
+  EXPECT_EQ(pool.cached_bytes(), 12288u + 5120u);  // releasing adds nothing to what it holds
+  pool.set_cache_limit(6000);                      // a lower limit applies at once
+  EXPECT_EQ(pool.cached_bytes(), 5120u);
+  pool.set_cache_limit(0);  // no limit
+  void* again = pool.allocate(100000);
+  pool.release(again, 100000);
+  EXPECT_EQ(pool.cached_bytes(), 5120u + HostPool::class_bytes(100000));
+}
+
 TEST(HostPool, ExecutorBuffersComeFromThePoolAndGoBackToIt) {
   HostPool pool;
   const CpuExecutor exec(&pool);

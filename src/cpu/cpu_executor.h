@@ -65,6 +65,12 @@ class CpuExecutor {
     return Buffer<T>(n, PooledAllocator<T>(pool_));
   }
 
+  /// Bounds the memory the pool holds for this build, its cached blocks included, by the
+  /// construction budget (HostPool::set_cache_limit).
+  void limit_cached_memory(std::uint64_t bytes) const {
+    if (pool_) pool_->set_cache_limit(bytes);
+  }
+
   /// Calls body(i) once for every i in [0, n), in parallel and in no particular order.
   /// Bodies must not write to the same location; they may run concurrently.
   template <typename F>

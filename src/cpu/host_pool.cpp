@@ -44,15 +44,24 @@ void* HostPool::allocate(std::size_t bytes) {
     for (auto found = cached_.lower_bound(size); found != cached_.end() && found->first <= 2 * size;
          ++found) {
       if (found->second.empty()) continue;
-      void* pointer = found->second.back();
+      void* pointer = found->second.back().pointer;
       if (found->first != size) larger_.emplace(pointer, found->first);
       found->second.pop_back();
       cached_bytes_ -= found->first;
+      given_bytes_ += found->first;
       return pointer;
     }
     ++fresh_;
+    given_bytes_ += size;
+    evict_past_limit();
   }
-  return system_allocate(size);
+  try {
+    return system_allocate(size);
+  } catch (...) {
+    const std::lock_guard lock(mutex_);
+    given_bytes_ -= size;
+    throw;
+  }
 }
 
 void HostPool::release(void* pointer, std::size_t bytes) noexcept {
@@ -63,8 +72,9 @@ void HostPool::release(void* pointer, std::size_t bytes) noexcept {
     size = found->second;
     larger_.erase(found);
   }
+  given_bytes_ -= size;
   try {
-    cached_[size].push_back(pointer);
+    cached_[size].push_back({pointer, ++releases_});
     cached_bytes_ += size;
   } catch (...) {  // no room to file it: give it back instead
     system_release(pointer, size);
@@ -74,10 +84,31 @@ void HostPool::release(void* pointer, std::size_t bytes) noexcept {
 void HostPool::trim() noexcept {
   const std::lock_guard lock(mutex_);
   for (auto& [size, blocks] : cached_)
-    for (void* pointer : blocks)
-      system_release(pointer, size);
+    for (const Cached& block : blocks)
+      system_release(block.pointer, size);
   cached_.clear();
   cached_bytes_ = 0;
+}
+
+void HostPool::set_cache_limit(std::uint64_t bytes) noexcept {
+  const std::lock_guard lock(mutex_);
+  limit_ = bytes;
+  evict_past_limit();
+}
+
+void HostPool::evict_past_limit() noexcept {
+  // Linear in the classes per eviction: a build caches a few dozen classes.
+  while (limit_ != 0 && cached_bytes_ != 0 && given_bytes_ + cached_bytes_ > limit_) {
+    auto oldest = cached_.end();
+    for (auto it = cached_.begin(); it != cached_.end(); ++it)
+      if (!it->second.empty() && (oldest == cached_.end() ||
+                                  it->second.front().freed_at < oldest->second.front().freed_at))
+        oldest = it;
+    system_release(oldest->second.front().pointer, oldest->first);
+    oldest->second.erase(oldest->second.begin());
+    cached_bytes_ -= oldest->first;
+    if (oldest->second.empty()) cached_.erase(oldest);
+  }
 }
 
 std::uint64_t HostPool::fresh_allocations() const {

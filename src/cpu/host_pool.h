@@ -18,8 +18,10 @@ namespace irgrid {
 /// to twice its size (a block keeps its true class when it comes back): the phases of one build
 /// free blocks of one size and ask for slightly different ones, and a fresh block costs the
 /// kernel's page faults and zero-filling (a fifth of a Sponza build's time before this reuse).
-/// Blocks more than twice as large stay cached for requests of their size. Thread-safe: the
-/// octree builder's threads grow their buffers concurrently.
+/// Blocks more than twice as large stay cached for requests of their size. With a cache limit
+/// (set_cache_limit), the blocks the pool holds, given out and cached, stay within it wherever
+/// caching is what would pass it: the least recently freed cached blocks go back to the system
+/// first. Thread-safe: the octree builder's threads grow their buffers concurrently.
 class HostPool {
  public:
   HostPool() = default;
@@ -36,6 +38,13 @@ class HostPool {
   /// Returns every cached block to the system (after a one-off build, whose cached blocks would
   /// otherwise hold its peak for the grid's life).
   void trim() noexcept;
+  /// Bounds what the pool holds, given-out blocks and cached ones together, by `bytes` (0: no
+  /// bound), by returning cached blocks to the system, the least recently freed first. Blocks
+  /// in use are never taken back, so the pool may hold more while they do. A build sets its
+  /// construction budget here: without it, arrays that grow phase after phase (the octree
+  /// levels of a budget-limited build) left the pool holding every size they had passed
+  /// through, twice the build's live peak on builtin:hairball:10000000.
+  void set_cache_limit(std::uint64_t bytes) noexcept;
 
   /// Blocks that came from the system rather than from the cache, since construction.
   std::uint64_t fresh_allocations() const;
@@ -46,13 +55,23 @@ class HostPool {
   static std::size_t class_bytes(std::size_t bytes) noexcept;
 
  private:
+  /// A free block and when it was freed (a count of releases), for least-recently-freed order.
+  struct Cached {
+    void* pointer;
+    std::uint64_t freed_at;
+  };
+
   static void* system_allocate(std::size_t class_size);
   static void system_release(void* pointer, std::size_t class_size) noexcept;
+  /// Returns the least recently freed cached blocks to the system until the pool is within its
+  /// limit or holds none cached. Called with mutex_ held.
+  void evict_past_limit() noexcept;
 
   mutable std::mutex mutex_;
-  std::map<std::size_t, std::vector<void*>> cached_;  ///< free blocks by class size
-  std::unordered_map<void*, std::size_t> larger_;     ///< blocks given out for a smaller class
-  std::uint64_t fresh_ = 0, cached_bytes_ = 0;
+  /// Free blocks by class size; each class's oldest first.
+  std::map<std::size_t, std::vector<Cached>> cached_;
+  std::unordered_map<void*, std::size_t> larger_;  ///< blocks given out for a smaller class
+  std::uint64_t fresh_ = 0, cached_bytes_ = 0, given_bytes_ = 0, releases_ = 0, limit_ = 0;
 };
 
 }  // namespace irgrid

@@ -180,6 +180,9 @@ class CudaExecutor {
 
   cudaStream_t stream() const { return stream_; }
   cuda::DevicePool& pool() const { return *pool_; }
+  /// Bounds the bytes the pool keeps cached by the construction budget
+  /// (CpuExecutor::limit_cached_memory).
+  void limit_cached_memory(std::uint64_t bytes) const { pool_->set_cache_limit(bytes); }
 
  private:
   static constexpr unsigned kThreads = 256;

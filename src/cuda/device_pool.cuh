@@ -52,6 +52,11 @@ class DevicePool {
   /// Returns every cached block to the driver (after a one-off build: the arena pays off only
   /// for rebuilds, and cached blocks would otherwise hold the build's peak for the grid's life).
   void trim() { allocator_.FreeAllCached(); }
+  /// Keeps at most `bytes` cached (0: no bound); blocks freed past it go back to the driver.
+  void set_cache_limit(std::uint64_t bytes) {
+    check(allocator_.SetMaxCachedBytes(bytes == 0 ? kUnlimited : std::size_t(bytes)),
+          "device pool cache limit", __FILE__, __LINE__);
+  }
 
   /// Allocations that reached the driver (not served from the cache) since construction.
   std::uint64_t fresh_allocations() const { return fresh_allocations_; }

@@ -159,6 +159,7 @@ std::int32_t build_initial_grid(Exec& exec, GridArrays<Exec>& grid, const BuildC
   if (count == 0) throw Error(ErrorCode::invalid_argument, "a grid needs at least one triangle");
   const TriangleVertices* triangles = grid.triangles.data();
   grid.budget_bytes = construction_budget(config, count, exec.memory_budget());
+  exec.limit_cached_memory(grid.budget_bytes);
   grid.budget_limited = false;
   auto counts = plan_top_grid_within_budget(exec, grid, config);
   clock.lap(BuildPhase::top_grid);
