@@ -187,10 +187,18 @@ IRGRID_HD inline void leave_empty_space(const GridView& grid, const GridWalk& w,
   std::int32_t far[3];
   for (int a = 0; a < 3; ++a) {
     const std::int32_t top = w.voxel[a] >> info.shift;
-    const std::int32_t hi = top + radius, lo = top - (radius - 1);
-    far[a] =
-        (w.walk.ascending[a] ? (hi < info.top_dims[a] ? hi : info.top_dims[a]) : (lo > 0 ? lo : 0))
-        << info.shift;
+    // Statements, not one conditional expression shifted: g++ 12 with -fsanitize=undefined
+    // compiled that expression with the descending branch on ascending axes (the walk then
+    // left the grid sideways and missed hits; GridTraversal.*WalksEqualSingleWalks).
+    std::int32_t far_top;
+    if (w.walk.ascending[a]) {
+      far_top = top + radius;
+      if (far_top > info.top_dims[a]) far_top = info.top_dims[a];
+    } else {
+      far_top = top - (radius - 1);
+      if (far_top < 0) far_top = 0;
+    }
+    far[a] = far_top << info.shift;
   }
   const CellExit cube = exit_through(w, far);
   if (cube.t_exit > e.t_exit) e = cube;
