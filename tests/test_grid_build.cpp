@@ -498,6 +498,49 @@ bool pilot_predicts_exceeding(const std::string& spec) {
       first.data(), depths.refs_per_top_cell.data(), pairs.count, grid.budget_bytes);
 }
 
+TEST(GridLimits, ALevelStopsItsTestsEarlyWithTheSameOctrees) {
+  // The level-by-level build stops a level's triangle/child tests once the splits that must
+  // happen pass the budget; the octrees must be those of a level that ran all its tests.
+  for (const char* spec : {"builtin:overlap:2000", "builtin:teapot-stadium:3000"}) {
+    CpuExecutor exec;
+    GridArrays<CpuExecutor> grid;
+    gather_triangles(load_scene(spec).mesh(), grid.triangles);
+    const BuildConfig config;
+    grid.budget_bytes = construction_budget(config, grid.triangles.size(), exec.memory_budget());
+    auto counts = plan_top_grid_within_budget(exec, grid, config);
+    auto pairs = emit_top_level_refs(exec, grid.triangles.data(), grid.info,
+                                     std::move(counts.offsets), counts.total);
+    const auto depths = plan_octree_depths(exec, grid.info, pairs, config);
+    const auto octrees = [&](std::uint64_t budget, bool stop_early) {
+      OctreeRule rule{depths.per_top_cell.data(), false, config.split_refs, depths.count_split,
+                      kUnpaidSplitRefs};
+      rule.stop_tests_at_budget = stop_early;
+      RefPairs<CpuExecutor> copy{exec.allocate<std::uint32_t>(pairs.count),
+                                 exec.allocate<std::uint32_t>(pairs.count), pairs.count};
+      std::copy_n(pairs.cell.data(), pairs.count, copy.cell.data());
+      std::copy_n(pairs.tri.data(), pairs.count, copy.tri.data());
+      return build_octree_levels(exec, grid.info, grid.triangles.data(), std::move(copy), rule,
+                                 budget);
+    };
+    const auto complete = octrees(std::uint64_t(1) << 40, true);
+    ASSERT_FALSE(complete.budget_limited) << spec;
+    const std::uint64_t peak =
+        octree_peak_bytes(complete.num_entries, complete.num_cells, complete.num_refs);
+    bool some_stopped = false;
+    for (const std::uint64_t budget : {peak, peak - 1, peak / 2, peak / 4, peak / 16}) {
+      SCOPED_TRACE(::testing::Message() << spec << ", budget " << budget);
+      const auto early = octrees(budget, true), late = octrees(budget, false);
+      EXPECT_EQ(early.budget_limited, late.budget_limited);
+      EXPECT_EQ(early.num_entries, late.num_entries);
+      EXPECT_EQ(early.num_cells, late.num_cells);
+      EXPECT_EQ(early.num_refs, late.num_refs);
+      EXPECT_EQ(early.budget_limited, budget < peak);
+      some_stopped |= early.budget_limited;
+    }
+    EXPECT_TRUE(some_stopped);
+  }
+}
+
 TEST(GridLimits, APilotSendsOnlyOctreesFarPastTheBudgetToTheLevelByLevelBuild) {
   // Large triangles crossing the box: the complete octrees would take many budgets, and the
   // depth-first build would run through one of them before it found out.

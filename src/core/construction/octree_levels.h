@@ -160,6 +160,9 @@ struct OctreeRule {
   /// Splits of nodes holding more references than this must pay (depth_split_pays);
   /// 0: every split the rules above allow goes ahead (the baselines, as published).
   std::uint32_t unpaid_refs;
+  /// Whether a level's tests stop once its sure splits pass the budget (plan_level); the
+  /// octrees are the same either way (GridLimits.ALevelStopsItsTestsEarlyWithTheSameOctrees).
+  bool stop_tests_at_budget = true;
 
   IRGRID_HD bool splits_by_depth(std::int32_t level, std::int32_t top_depth,
                                  std::uint32_t refs) const {
@@ -285,7 +288,7 @@ LevelPlan<Exec> plan_level(Exec& exec, const GridInfo& info, const TriangleVerti
           return std::uint64_t(r.splits_surely(level, r.depths[top[i]], child_base[i]));
         });
     std::uint64_t sure_child_refs = 0;
-    const std::size_t chunk = std::max<std::size_t>(pairs.count / 16 + 1, std::size_t(1) << 16);
+    const std::size_t chunk = std::max<std::size_t>(pairs.count / 16 + 1, std::size_t(1) << 12);
     for (std::size_t begin = 0; begin < pairs.count && !passes_budget; begin += chunk) {
       const std::size_t count = std::min<std::size_t>(chunk, pairs.count - begin);
       exec.for_each("level child counts", count, [=] IRGRID_HD(std::size_t k) {
@@ -297,7 +300,7 @@ LevelPlan<Exec> plan_level(Exec& exec, const GridInfo& info, const TriangleVerti
         atomic_add(&leaf_index[node], popcount8(mask));
         atomic_and(&folded[node], fold_mask(mask));
       });
-      if (sure_splits == 0) continue;
+      if (sure_splits == 0 || !r.stop_tests_at_budget) continue;
       sure_child_refs += exec.transform_reduce(
           "level sure child refs", count, std::uint64_t(0), plus, [=] IRGRID_HD(std::size_t k) {
             const std::uint32_t node = pair_node[begin + k];
