@@ -89,19 +89,20 @@ def _rays(rays) -> tuple[np.ndarray, tuple[int, ...]]:
 
 
 def _interval(tmin, tmax, leading: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
-    """tmin and tmax (numbers, or arrays broadcastable to the rays' leading shape) as one
-    float32 value per ray."""
+    """tmin and tmax (numbers, or arrays broadcastable to the rays' leading shape) as float32
+    arrays of one value for every ray, or of one value per ray."""
     bounds = []
     for name, value in (("tmin", tmin), ("tmax", tmax)):
         array = np.asarray(value, dtype=np.float32)
         if np.isnan(array).any():
             raise ValueError(f"{name}: NaN is not a distance")
         try:
-            array = np.broadcast_to(array, leading)
+            broadcast = np.broadcast_to(array, leading)
         except ValueError:
             raise ValueError(f"{name}: shape {array.shape} does not broadcast to the rays' "
                              f"{leading}") from None
-        bounds.append(np.ascontiguousarray(array.reshape(-1)))
+        bounds.append(array.reshape(1) if array.size == 1 else
+                      np.ascontiguousarray(broadcast.reshape(-1)))
     return bounds[0], bounds[1]
 
 

@@ -1,24 +1,65 @@
 // Ray and hit conversions for the Python module, in parallel over large batches.
 #include "arrays.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 namespace irgrid::python {
 
-RawArray<Ray> rays_from_rows(const float* rows, std::size_t n, const float* tmin,
-                             const float* tmax) {
+namespace {
+// Rays traced per call: the SIMD walk's lanes run dry at the end of each call, so it is no
+// smaller than what the accelerators' own parallel loops hand one thread of a large batch.
+constexpr std::size_t kChunk = 16384;
+}  // namespace
+
+RawArray<Ray> rays_from_rows(const float* rows, std::size_t n, RayBounds tmin, RayBounds tmax) {
   auto rays = uninitialized_array<Ray>(n);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& range) {
-    for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      const float* r = rows + 6 * i;
-      rays[i] = {{r[0], r[1], r[2]}, tmin[i], {r[3], r[4], r[5]}, tmax[i]};
-    }
+    for (std::size_t i = range.begin(); i != range.end(); ++i)
+      rays[i] = ray_of_row(rows, i, tmin, tmax);
   });
   return rays;
+}
+
+void trace_rows(const Accelerator& accelerator, const float* rows, std::size_t n, RayBounds tmin,
+                RayBounds tmax, Query query,
+                const std::function<void(std::size_t, std::span<const Hit>)>& consume) {
+  if (accelerator.backend() != Backend::cpu) {
+    const auto rays = rays_from_rows(rows, n, tmin, tmax);
+    const auto hits = uninitialized_array<Hit>(n);
+    accelerator.trace({rays.get(), n}, {hits.get(), n}, query);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& r) {
+      consume(r.begin(), {hits.get() + r.begin(), r.size()});
+    });
+    return;
+  }
+  // The partitioner may hand out ranges longer than the grain: each goes kChunk rays at a time,
+  // through buffers kept per thread (reused from call to call, so their pages stay mapped).
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kChunk), [&](const auto& range) {
+    thread_local std::vector<Ray> rays;
+    thread_local std::vector<Hit> hits;
+    if (rays.size() < std::min(kChunk, range.size())) {
+      rays.resize(std::min(kChunk, range.size()));
+      hits.resize(rays.size());
+    }
+    for (std::size_t first = range.begin(); first < range.end(); first += kChunk) {
+      const std::size_t count = std::min(kChunk, range.end() - first);
+      for (std::size_t i = 0; i < count; ++i)
+        rays[i] = ray_of_row(rows, first + i, tmin, tmax);
+      // Isolated: while its own parallel_for waits, this thread must not take up another range
+      // of the outer loop, which would reuse the buffers.
+      tbb::this_task_arena::isolate([&] {
+        accelerator.trace({rays.data(), count}, {hits.data(), count}, query);
+      });
+      consume(first, {hits.data(), count});
+    }
+  });
 }
 
 void triangle_normals(const float* vertices, const std::uint32_t* triangles,
@@ -41,24 +82,26 @@ void triangle_normals(const float* vertices, const std::uint32_t* triangles,
   });
 }
 
-void split_hits(std::span<const Hit> hits, const float* triangle_normals, float* t,
-                std::uint32_t* prim, float* uv, float* normals) {
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, hits.size(), 4096), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      const Hit& h = hits[i];
-      prim[i] = h.prim;
-      float* n = normals + 3 * i;
-      if (!h.hit()) {
-        t[i] = std::numeric_limits<float>::infinity();
-        uv[2 * i] = uv[2 * i + 1] = 0;
-        n[0] = n[1] = n[2] = 0;
-        continue;
-      }
-      t[i] = h.t, uv[2 * i] = h.u, uv[2 * i + 1] = h.v;
-      const float* source = triangle_normals + 3 * std::size_t(h.prim);
-      n[0] = source[0], n[1] = source[1], n[2] = source[2];
+void split_hits(std::size_t first, std::span<const Hit> hits, const float* triangle_normals,
+                float* t, std::uint32_t* prim, float* uv, float* normals) {
+  constexpr std::size_t kAhead = 16;  // the normals are read at random: ask for them early
+  for (std::size_t k = 0; k < hits.size(); ++k) {
+    if (k + kAhead < hits.size() && hits[k + kAhead].hit())
+      __builtin_prefetch(triangle_normals + 3 * std::size_t(hits[k + kAhead].prim));
+    const Hit& h = hits[k];
+    const std::size_t i = first + k;
+    prim[i] = h.prim;
+    float* n = normals + 3 * i;
+    if (!h.hit()) {
+      t[i] = std::numeric_limits<float>::infinity();
+      uv[2 * i] = uv[2 * i + 1] = 0;
+      n[0] = n[1] = n[2] = 0;
+      continue;
     }
-  });
+    t[i] = h.t, uv[2 * i] = h.u, uv[2 * i + 1] = h.v;
+    const float* source = triangle_normals + 3 * std::size_t(h.prim);
+    n[0] = source[0], n[1] = source[1], n[2] = source[2];
+  }
 }
 
 }  // namespace irgrid::python

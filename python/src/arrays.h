@@ -3,18 +3,42 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <new>
 #include <span>
 #include <vector>
 
+#include "irgrid/accelerator.h"
 #include "irgrid/ray.h"
 
 namespace irgrid::python {
 
-/// Storage for n rays or hits that the caller overwrites whole: not zeroed first (a pass over
-/// 48 bytes a ray that cost Python's cast_rays 5-10% of a trace). Ray and Hit are aggregates,
-/// so the allocation itself begins their lifetimes.
+/// tmin or tmax of the rays: one value for every ray (count 1) or one per ray.
+struct RayBounds {
+  const float* values;
+  std::size_t count;
+  float operator[](std::size_t i) const { return values[count == 1 ? 0 : i]; }
+};
+
+/// Ray `i` of rows of 6 floats (origin, direction) over [tmin[i], tmax[i]].
+inline Ray ray_of_row(const float* rows, std::size_t i, RayBounds tmin, RayBounds tmax) {
+  const float* r = rows + 6 * i;
+  return {{r[0], r[1], r[2]}, tmin[i], {r[3], r[4], r[5]}, tmax[i]};
+}
+
+/// Traces n rows of rays and hands the hits of rays [first, first + hits.size()) to
+/// `consume(first, hits)`, from several threads at once for disjoint ranges. On the CPU each
+/// thread converts and traces 16K rays at a time through buffers of its own (768 KiB, about
+/// what the accelerators' parallel loops give one thread of a large batch): no batch-sized
+/// ray or hit array is written and read again, with its page faults. On the CUDA backend the
+/// batch goes to the device whole.
+void trace_rows(const Accelerator& accelerator, const float* rows, std::size_t n, RayBounds tmin,
+                RayBounds tmax, Query query,
+                const std::function<void(std::size_t first, std::span<const Hit> hits)>& consume);
+
+/// Storage for n rays or hits that the caller overwrites whole: not zeroed first. Ray and Hit
+/// are aggregates, so the allocation itself begins their lifetimes.
 struct RawDelete {
   void operator()(void* p) const noexcept { ::operator delete[](p); }
 };
@@ -26,18 +50,18 @@ RawArray<T> uninitialized_array(std::size_t n) {
   return RawArray<T>(static_cast<T*>(::operator new[](n * sizeof(T))));
 }
 
-/// Rays from n rows of 6 floats (origin, direction), ray i over [tmin[i], tmax[i]].
-RawArray<Ray> rays_from_rows(const float* rows, std::size_t n, const float* tmin,
-                             const float* tmax);
+/// All n rays of the rows (count_crossings takes a whole batch).
+RawArray<Ray> rays_from_rows(const float* rows, std::size_t n, RayBounds tmin, RayBounds tmax);
 
 /// The unit geometric normal (v1 - v0) x (v2 - v0) of each triangle, zero for a degenerate one,
 /// into `normals` (3 floats per triangle), from float32 xyz vertices and uint32 triangles.
 void triangle_normals(const float* vertices, const std::uint32_t* triangles,
                       std::size_t triangle_count, float* normals);
 
-/// The hits as Python returns them: t (inf on a miss), primitive id (kNoHit on a miss), u, v
-/// and the normal of the triangle hit from `triangle_normals` (zero on a miss).
-void split_hits(std::span<const Hit> hits, const float* triangle_normals, float* t,
-                std::uint32_t* prim, float* uv, float* normals);
+/// Hits of rays [first, first + hits.size()) as Python returns them, into element `first` onwards
+/// of each array: t (inf on a miss), primitive id (kNoHit on a miss), u, v and the normal of the
+/// triangle hit from `triangle_normals` (zero on a miss).
+void split_hits(std::size_t first, std::span<const Hit> hits, const float* triangle_normals,
+                float* t, std::uint32_t* prim, float* uv, float* normals);
 
 }  // namespace irgrid::python

@@ -17,6 +17,7 @@
 #include "gpu_arrays.h"
 #include "irgrid/io/scene.h"
 #include "irgrid/irgrid.h"
+#include "result_memory.h"
 
 namespace nb = nanobind;
 
@@ -27,15 +28,31 @@ using FloatRows = nb::ndarray<const float, nb::ndim<2>, nb::c_contig, nb::device
 using IndexRows = nb::ndarray<const std::uint32_t, nb::ndim<2>, nb::c_contig, nb::device::cpu>;
 using Floats = nb::ndarray<const float, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
 
-/// A numpy array of `shape` that owns new memory.
+/// A numpy array of `shape` that owns new memory (result_memory.h).
 template <typename T>
 nb::ndarray<nb::numpy, T> new_array(std::initializer_list<std::size_t> shape) {
   std::size_t count = 1;
   for (std::size_t extent : shape)
     count *= extent;
-  T* data = new T[count > 0 ? count : 1];
-  nb::capsule owner(data, [](void* p) noexcept { delete[] static_cast<T*>(p); });
-  return nb::ndarray<nb::numpy, T>(data, shape.size(), std::data(shape), owner);
+  // The capsule keeps the size for the release: the block's bytes, at the pointer's side.
+  struct Owned {
+    void* data;
+    std::size_t bytes;
+  };
+  auto* owned = new Owned{nullptr, count * sizeof(T)};
+  try {
+    owned->data = acquire_result_memory(owned->bytes);
+  } catch (...) {
+    delete owned;
+    throw;
+  }
+  nb::capsule owner(owned, [](void* p) noexcept {
+    auto* o = static_cast<Owned*>(p);
+    release_result_memory(o->data, o->bytes);
+    delete o;
+  });
+  return nb::ndarray<nb::numpy, T>(static_cast<T*>(owned->data), shape.size(), std::data(shape),
+                                   owner);
 }
 
 void require_columns(const FloatRows& rows, std::size_t columns, const char* what) {
@@ -44,12 +61,13 @@ void require_columns(const FloatRows& rows, std::size_t columns, const char* wha
                 std::string(what) + ": expected " + std::to_string(columns) + " columns");
 }
 
-/// The rays of `rows` (origin, direction) over [tmin[i], tmax[i]].
-RawArray<Ray> rays_of(const FloatRows& rows, const Floats& tmin, const Floats& tmax) {
+/// tmin or tmax: one value for every row (a 1-element array) or one per row.
+RayBounds bounds_of(const FloatRows& rows, const Floats& values, const char* what) {
   require_columns(rows, 6, "rays");
-  if (tmin.shape(0) != rows.shape(0) || tmax.shape(0) != rows.shape(0))
-    throw Error(ErrorCode::invalid_argument, "rays: one tmin and one tmax per ray expected");
-  return rays_from_rows(rows.data(), rows.shape(0), tmin.data(), tmax.data());
+  if (values.shape(0) != 1 && values.shape(0) != rows.shape(0))
+    throw Error(ErrorCode::invalid_argument,
+                std::string(what) + ": one value, or one per ray expected");
+  return {values.data(), values.shape(0)};
 }
 
 /// One built structure over a mesh, with the mesh's arrays kept for normals and rebuilds.
@@ -78,6 +96,7 @@ class PyAccelerator {
   std::uint64_t memory_bytes() const { return accelerator_->build_stats().memory_bytes; }
 
   nb::tuple cast_rays(const FloatRows& rows, const Floats& tmin, const Floats& tmax) const {
+    const RayBounds lo = bounds_of(rows, tmin, "tmin"), hi = bounds_of(rows, tmax, "tmax");
     const std::size_t n = rows.shape(0);
     auto t = new_array<float>({n});
     auto prim = new_array<std::uint32_t>({n});
@@ -85,26 +104,27 @@ class PyAccelerator {
     auto normals = new_array<float>({n, 3});
     {
       nb::gil_scoped_release release;
-      const auto rays = rays_of(rows, tmin, tmax);
-      const auto hits = uninitialized_array<Hit>(n);
-      accelerator_->trace({rays.get(), n}, {hits.get(), n}, Query::closest);
-      split_hits({hits.get(), n}, normals_.data(), t.data(), prim.data(), uv.data(),
-                 normals.data());
+      trace_rows(*accelerator_, rows.data(), n, lo, hi, Query::closest,
+                 [&](std::size_t first, std::span<const Hit> hits) {
+                   split_hits(first, hits, normals_.data(), t.data(), prim.data(), uv.data(),
+                              normals.data());
+                 });
     }
     return nb::make_tuple(t, prim, uv, normals);
   }
 
   nb::ndarray<nb::numpy, bool> test_occlusions(const FloatRows& rows, const Floats& tmin,
                                                const Floats& tmax) const {
+    const RayBounds lo = bounds_of(rows, tmin, "tmin"), hi = bounds_of(rows, tmax, "tmax");
     const std::size_t n = rows.shape(0);
     auto occluded = new_array<bool>({n});
     {
       nb::gil_scoped_release release;
-      const auto rays = rays_of(rows, tmin, tmax);
-      const auto hits = uninitialized_array<Hit>(n);
-      accelerator_->trace({rays.get(), n}, {hits.get(), n}, Query::any);
-      for (std::size_t i = 0; i < n; ++i)
-        occluded.data()[i] = hits[i].hit();
+      trace_rows(*accelerator_, rows.data(), n, lo, hi, Query::any,
+                 [&](std::size_t first, std::span<const Hit> hits) {
+                   for (std::size_t k = 0; k < hits.size(); ++k)
+                     occluded.data()[first + k] = hits[k].hit();
+                 });
     }
     return occluded;
   }
@@ -112,11 +132,12 @@ class PyAccelerator {
   nb::ndarray<nb::numpy, std::int32_t> count_intersections(const FloatRows& rows,
                                                            const Floats& tmin,
                                                            const Floats& tmax) const {
+    const RayBounds lo = bounds_of(rows, tmin, "tmin"), hi = bounds_of(rows, tmax, "tmax");
     const std::size_t n = rows.shape(0);
     auto out = new_array<std::int32_t>({n});
     {
       nb::gil_scoped_release release;
-      const auto rays = rays_of(rows, tmin, tmax);
+      const auto rays = rays_from_rows(rows.data(), n, lo, hi);
       std::vector<std::uint32_t> counts(n);
       count_crossings(*accelerator_, {rays.get(), n}, counts);
       std::memcpy(out.data(), counts.data(), n * sizeof(std::int32_t));

@@ -170,3 +170,28 @@ def test_bad_rays_options_and_files_raise_clear_errors(unit_square, tmp_path):
     if "cuda" not in irgrid.backends():
         with pytest.raises(irgrid.Error, match="cuda"):
             irgrid.Scene(*unit_square, backend="cuda")
+
+
+def test_a_large_batch_answers_each_ray_in_its_place():
+    """cast_rays traces a large batch in chunks per thread: every ray's hit must come back at
+    its own place, whatever the order and size of the batch."""
+    vertices, triangles = irgrid.load("builtin:cornell")
+    scene = irgrid.Scene(vertices, triangles, backend="cpu")
+    rng = np.random.default_rng(7)
+    count = 200_003  # several chunks per thread, and a ragged last one
+    origins = rng.uniform(vertices.min(axis=0), vertices.max(axis=0), (count, 3))
+    directions = rng.normal(size=(count, 3))
+    rays = np.concatenate([origins, directions], axis=1).astype(np.float32)
+    tmax = rng.uniform(0.1, 10, count).astype(np.float32)
+    whole = scene.cast_rays(rays, tmax=tmax)
+    occluded = scene.test_occlusions(rays, tmax=tmax)
+    order = rng.permutation(count)  # every ray in another chunk, at another place in it
+    shuffled = scene.cast_rays(rays[order], tmax=tmax[order])
+    for key, value in shuffled.items():
+        np.testing.assert_array_equal(whole[key][order], value, err_msg=key)
+    np.testing.assert_array_equal(occluded[order],
+                                  scene.test_occlusions(rays[order], tmax=tmax[order]))
+    small = scene.cast_rays(rays[:1000], tmax=tmax[:1000])  # one chunk, one thread
+    np.testing.assert_array_equal(whole["primitive_ids"][:1000], small["primitive_ids"])
+    assert np.isfinite(whole["t_hit"]).any() and not np.isfinite(whole["t_hit"]).all()
+    np.testing.assert_array_equal(occluded, np.isfinite(whole["t_hit"]))
