@@ -371,6 +371,21 @@ TEST_F(Cli, BuildFingerprintIsEqualForEqualGridsOnly) {
   }
 }
 
+TEST_F(Cli, BuildReportsTheProcessMemoryOfEachPhase) {
+  const auto [r, json] = run_json("build builtin:hairball:3000", "memory.json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("process memory at each phase's end"), std::string::npos) << r.out;
+  const auto& phases = json["phase_process_memory"];
+  // One entry per phase that ran, each as large as the phase times say ran.
+  EXPECT_EQ(phases.size(), json["build_phases_ms"].size()) << phases.dump();
+#if defined(__linux__)
+  for (const auto& [phase, memory] : phases.items()) {
+    EXPECT_GT(memory["resident_bytes"].get<double>(), 0) << phase;
+    EXPECT_GE(memory["peak_bytes"].get<double>(), memory["resident_bytes"].get<double>()) << phase;
+  }
+#endif
+}
+
 TEST_F(Cli, BuildSaysWhenASmallSceneRaisesLambda2) {
   const auto [raised, raised_json] = run_json("build builtin:cornell", "raised.json");
   ASSERT_EQ(raised.code, 0) << raised.err;

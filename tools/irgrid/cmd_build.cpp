@@ -65,6 +65,24 @@ nlohmann::json statistics_json(const Scene& scene, const std::string& scene_file
   return statistics;
 }
 
+/// The process's memory per phase: {"phase": {"resident_bytes", "peak_bytes"}}.
+nlohmann::json phase_memory_json(const PhaseMemoryRecorder& memory) {
+  nlohmann::json phases = nlohmann::json::object();
+  for (const PhaseMemory& p : memory.phases())
+    phases[to_string(p.phase)] = {{"resident_bytes", p.memory.resident_bytes},
+                                  {"peak_bytes", p.memory.peak_bytes}};
+  return phases;
+}
+
+void print_phase_memory(const PhaseMemoryRecorder& memory) {
+  fmt::print("  process memory at each phase's end (resident / peak {}):\n",
+             memory.peaks_per_phase() ? "during the phase" : "so far");
+  for (const PhaseMemory& p : memory.phases())
+    fmt::print("    {:<22} {:>10.1f} / {:>10.1f} MiB\n", to_string(p.phase),
+               double(p.memory.resident_bytes) / 1048576.0,
+               double(p.memory.peak_bytes) / 1048576.0);
+}
+
 void print_statistics(const Scene& scene, const Accelerator& accelerator, const BuildConfig& grid) {
   const BuildStats& stats = accelerator.build_stats();
   fmt::print("{} on {} over {} ({} triangles): built in {:.2f} ms\n",
@@ -104,14 +122,17 @@ void print_statistics(const Scene& scene, const Accelerator& accelerator, const 
 void run_build(const BuildOptions& o) {
   if (!o.json.empty()) check_writable(o.json);
   const Scene scene = load_scene_reporting(o.scene);
-  const auto accelerator = build_reporting(scene, o.structure);
+  PhaseMemoryRecorder memory;
+  const auto accelerator = build_reporting(scene, o.structure, &memory);
   print_statistics(scene, *accelerator, o.structure.grid);
+  print_phase_memory(memory);
   const std::string fingerprint =
       o.fingerprint ? fmt::format("{:016x}", grid_fingerprint(*accelerator)) : std::string();
   if (o.fingerprint) fmt::print("  grid fingerprint {:>22}\n", fingerprint);
   if (o.json.empty()) return;
   auto statistics = statistics_json(scene, o.scene, *accelerator, o.structure.grid);
   if (o.fingerprint) statistics["grid_fingerprint"] = fingerprint;
+  statistics["phase_process_memory"] = phase_memory_json(memory);
   write_file_whole(o.json, statistics.dump(2) + '\n');
 }
 

@@ -192,12 +192,15 @@ std::unique_ptr<Accelerator> make_structure(const Scene& scene, Structure struct
   return accelerator;
 }
 
-std::unique_ptr<Accelerator> build_reporting(const Scene& scene,
-                                             const StructureOptions& structure) {
+std::unique_ptr<Accelerator> build_reporting(const Scene& scene, const StructureOptions& structure,
+                                             PhaseMemoryRecorder* memory) {
   AcceleratorOptions options = accelerator_options(structure.backend, structure.grid);
   const Structure chosen = structure.parsed_structure();
   Progress progress(fmt::format("building {}", to_string(chosen)), kBuildPhaseCount);
-  options.on_phase = [&](BuildPhase) { progress.advance(1); };
+  options.on_phase = [&](BuildPhase phase) {
+    if (memory) memory->phase_ended(phase);
+    progress.advance(1);
+  };
   auto accelerator = make_structure(scene, chosen, options);
   progress.done();
   fmt::print(stderr, "built {} on {} in {:.1f} ms\n", to_string(accelerator->structure()),

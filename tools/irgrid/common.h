@@ -12,6 +12,7 @@
 
 #include "irgrid/accelerator.h"
 #include "irgrid/io/scene.h"
+#include "process_memory.h"
 
 namespace irgrid::cli {
 
@@ -46,8 +47,10 @@ std::unique_ptr<Accelerator> make_structure(const Scene& scene, Structure struct
 /// Adds --structure, --backend and the grid parameters (--lambda1, ...) to a command.
 void add_structure_options(CLI::App* command, StructureOptions& options);
 
-/// Builds a structure, printing what was built and how long it took on stderr.
-std::unique_ptr<Accelerator> build_reporting(const Scene& scene, const StructureOptions& options);
+/// Builds a structure, printing what was built and how long it took on stderr; with `memory`,
+/// records the process's memory as each phase ends.
+std::unique_ptr<Accelerator> build_reporting(const Scene& scene, const StructureOptions& options,
+                                             PhaseMemoryRecorder* memory = nullptr);
 
 /// A validator for whole-number options: digits only (no sign, so -1 cannot wrap to 2^64 - 1),
 /// at least `least` (0 or 1). Its message names the rule, not the type's range.
