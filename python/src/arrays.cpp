@@ -10,6 +10,8 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include "hit_split.h"
+
 namespace irgrid::python {
 
 namespace {
@@ -88,19 +90,7 @@ void split_hits(std::size_t first, std::span<const Hit> hits, const float* trian
   for (std::size_t k = 0; k < hits.size(); ++k) {
     if (k + kAhead < hits.size() && hits[k + kAhead].hit())
       __builtin_prefetch(triangle_normals + 3 * std::size_t(hits[k + kAhead].prim));
-    const Hit& h = hits[k];
-    const std::size_t i = first + k;
-    prim[i] = h.prim;
-    float* n = normals + 3 * i;
-    if (!h.hit()) {
-      t[i] = std::numeric_limits<float>::infinity();
-      uv[2 * i] = uv[2 * i + 1] = 0;
-      n[0] = n[1] = n[2] = 0;
-      continue;
-    }
-    t[i] = h.t, uv[2 * i] = h.u, uv[2 * i + 1] = h.v;
-    const float* source = triangle_normals + 3 * std::size_t(h.prim);
-    n[0] = source[0], n[1] = source[1], n[2] = source[2];
+    split_hit(first + k, hits[k], triangle_normals, t, prim, uv, normals);
   }
 }
 

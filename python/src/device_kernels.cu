@@ -7,6 +7,7 @@
 #include <cmath>
 #include <string>
 
+#include "hit_split.h"
 #include "irgrid/error.h"
 
 namespace irgrid::python::gpu {
@@ -42,18 +43,7 @@ __global__ void split_hits_kernel(const Hit* hits, std::size_t n, const float* t
                                   float* t, std::uint32_t* prim, float* uv, float* normals) {
   const std::size_t i = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x;
   if (i >= n) return;
-  const Hit h = hits[i];
-  prim[i] = h.prim;
-  float* normal = normals + 3 * i;
-  if (h.prim == kNoHit) {
-    t[i] = INFINITY;
-    uv[2 * i] = uv[2 * i + 1] = 0;
-    normal[0] = normal[1] = normal[2] = 0;
-    return;
-  }
-  t[i] = h.t, uv[2 * i] = h.u, uv[2 * i + 1] = h.v;
-  const float* source = triangle_normals + 3 * std::size_t(h.prim);
-  normal[0] = source[0], normal[1] = source[1], normal[2] = source[2];
+  split_hit(i, hits[i], triangle_normals, t, prim, uv, normals);
 }
 
 __global__ void occlusions_kernel(const Hit* hits, std::size_t n, bool* occluded) {
