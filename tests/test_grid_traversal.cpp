@@ -155,9 +155,9 @@ template <Query kQuery, typename CellT>
 using ChunkWalk = void (*)(const GridView&, std::span<const Ray>, std::span<Hit>,
                            std::span<RayWork>);
 
-template <Query kQuery, typename CellT>
-void expect_walk_equals_single(ChunkWalk<kQuery, CellT> walk, const GridView& view,
-                               const std::vector<Ray>& rays, const std::string& what) {
+template <Query kQuery, typename CellT, typename Walk = ChunkWalk<kQuery, CellT>>
+void expect_walk_equals_single(Walk walk, const GridView& view, const std::vector<Ray>& rays,
+                               const std::string& what) {
   std::vector<Hit> single(rays.size()), walked(rays.size());
   std::vector<RayWork> single_work(rays.size()), walked_work(rays.size());
   trace_one_by_one<kQuery, CellT>(view, rays, single, single_work);
@@ -194,6 +194,9 @@ void for_adversarial_ray_sets(Check check) {
     check(grid, rays, spec);
     check(grid, few, std::string(spec) + " (3 rays)");
     check(grid, extreme, std::string(spec) + " (extreme directions)");
+    // Camera rays in image order: neighbouring lanes share cells (the SIMD walk's packets).
+    check(grid, primary_rays(auto_camera(scene.bounds()), 97, 61),
+          std::string(spec) + " (camera rays)");
   }
   // Rays whose float t needs its redo in double (the lanes leave those tests to the scalar one).
   const Scene sliver = testing::scene_from_triangles(testing::sliver_beside_square_triangles());
@@ -209,26 +212,39 @@ TEST(GridTraversal, InterleavedWalksEqualSingleWalks) {
   });
 }
 
-// The SIMD walk of `kIsa` against single walks, with both cell layouts: the full cells of the
-// build, and the compressed ones.
+/// The SIMD walk of `kIsa` with its lanes given rays as `lane_rays` says, as a ChunkWalk.
+template <SimdIsa kIsa, Query kQuery, typename CellT>
+auto simd_walk(SimdRays lane_rays) {
+  return [lane_rays](const GridView& view, std::span<const Ray> rays, std::span<Hit> hits,
+                     std::span<RayWork> work) {
+    trace_simd_lanes<kIsa, kQuery, CellT>(view, rays, hits, work, lane_rays);
+  };
+}
+
+// The SIMD walk of `kIsa` against single walks, lanes given rays either way, with both cell
+// layouts: the full cells of the build, and the compressed ones.
 template <SimdIsa kIsa>
 void expect_simd_walks_equal_single_walks() {
   for_adversarial_ray_sets([](const auto& grid, const auto& rays, const std::string& what) {
     ASSERT_TRUE(simd_walk_fits(grid.info));
     const GridView view = make_grid_view(grid, nullptr);
-    expect_walk_equals_single<Query::closest, Cell>(trace_simd_lanes<kIsa, Query::closest, Cell>,
-                                                    view, rays, what);
-    expect_walk_equals_single<Query::any, Cell>(trace_simd_lanes<kIsa, Query::any, Cell>, view,
-                                                rays, what);
     CpuExecutor exec;
     CpuExecutor::Buffer<CompactCell> compact;
     compress_cells(exec, grid, compact);
     const GridView compact_view = make_grid_view(grid, compact.data());
-    expect_walk_equals_single<Query::closest, CompactCell>(
-        trace_simd_lanes<kIsa, Query::closest, CompactCell>, compact_view, rays,
-        what + ", compressed");
-    expect_walk_equals_single<Query::any, CompactCell>(
-        trace_simd_lanes<kIsa, Query::any, CompactCell>, compact_view, rays, what + ", compressed");
+    for (const SimdRays lane_rays : {SimdRays::independent, SimdRays::packets}) {
+      const std::string how = what + (lane_rays == SimdRays::packets ? ", packets" : "");
+      expect_walk_equals_single<Query::closest, Cell>(
+          simd_walk<kIsa, Query::closest, Cell>(lane_rays), view, rays, how);
+      expect_walk_equals_single<Query::any, Cell>(simd_walk<kIsa, Query::any, Cell>(lane_rays),
+                                                  view, rays, how);
+      expect_walk_equals_single<Query::closest, CompactCell>(
+          simd_walk<kIsa, Query::closest, CompactCell>(lane_rays), compact_view, rays,
+          how + ", compressed");
+      expect_walk_equals_single<Query::any, CompactCell>(
+          simd_walk<kIsa, Query::any, CompactCell>(lane_rays), compact_view, rays,
+          how + ", compressed");
+    }
   });
 }
 

@@ -40,11 +40,25 @@ bool cpu_has(SimdIsa isa);
 /// than 2^31 / 9 triangles; cells read in 8-byte units: fewer than 2^29 cells).
 bool simd_walk_fits(const GridInfo& info);
 
+/// How the SIMD walk gives rays to its lanes.
+enum class SimdRays {
+  /// A lane takes the next ray as soon as its walk ends: no lane idles (incoherent rays).
+  independent,
+  /// A group of lanes takes the next L rays together once all its walks have ended, and the
+  /// lanes that share a cell test its triangles together, one triangle for all of them with its
+  /// corners broadcast instead of gathered, where that takes fewer instructions: the packets of
+  /// coherent grid traversal (Wald et al., "Ray Tracing Animated Scenes using Coherent Grid
+  /// Traversal", SIGGRAPH 2006), kept per lane so that every ray still walks its own cells. For
+  /// rays that start together and point the same way (camera rays, in image order).
+  packets,
+};
+
 /// Traces rays[i] into hits[i] (and the work of each into work[i] when work is not empty) with
-/// walks in the SIMD lanes of `kIsa`. The same hits and work as traverse_grid<kQuery, CellT>
-/// per ray, bit for bit. Requires cpu_has(kIsa) and simd_walk_fits(grid.info).
+/// walks in the SIMD lanes of `kIsa`, given to the lanes as `lane_rays` says. The same hits and
+/// work as traverse_grid<kQuery, CellT> per ray, bit for bit, either way. Requires cpu_has(kIsa)
+/// and simd_walk_fits(grid.info).
 template <SimdIsa kIsa, Query kQuery, typename CellT>
 void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span<Hit> hits,
-                      std::span<RayWork> work);
+                      std::span<RayWork> work, SimdRays lane_rays);
 
 }  // namespace irgrid

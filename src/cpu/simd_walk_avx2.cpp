@@ -29,27 +29,24 @@ namespace irgrid {
 
 template <SimdIsa kIsa, Query kQuery, typename CellT>
 void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span<Hit> hits,
-                      std::span<RayWork> work) {
+                      std::span<RayWork> work, SimdRays lane_rays) {
   static_assert(kIsa == SimdIsa::avx2);
   simd::LaneWalk<simd::Avx2Lanes, kSimdWalkRaysInFlight / simd::Avx2Lanes::kLanes>::template trace<
-      kQuery, CellT>(grid, rays, hits, work);
+      kQuery, CellT>(grid, rays, hits, work, lane_rays);
 }
 
 template void trace_simd_lanes<SimdIsa::avx2, Query::closest, Cell>(const GridView&,
                                                                     std::span<const Ray>,
                                                                     std::span<Hit>,
-                                                                    std::span<RayWork>);
+                                                                    std::span<RayWork>, SimdRays);
 template void trace_simd_lanes<SimdIsa::avx2, Query::any, Cell>(const GridView&,
                                                                 std::span<const Ray>,
-                                                                std::span<Hit>, std::span<RayWork>);
-template void trace_simd_lanes<SimdIsa::avx2, Query::closest, CompactCell>(const GridView&,
-                                                                           std::span<const Ray>,
-                                                                           std::span<Hit>,
-                                                                           std::span<RayWork>);
-template void trace_simd_lanes<SimdIsa::avx2, Query::any, CompactCell>(const GridView&,
-                                                                       std::span<const Ray>,
-                                                                       std::span<Hit>,
-                                                                       std::span<RayWork>);
+                                                                std::span<Hit>, std::span<RayWork>,
+                                                                SimdRays);
+template void trace_simd_lanes<SimdIsa::avx2, Query::closest, CompactCell>(
+    const GridView&, std::span<const Ray>, std::span<Hit>, std::span<RayWork>, SimdRays);
+template void trace_simd_lanes<SimdIsa::avx2, Query::any, CompactCell>(
+    const GridView&, std::span<const Ray>, std::span<Hit>, std::span<RayWork>, SimdRays);
 
 }  // namespace irgrid
 

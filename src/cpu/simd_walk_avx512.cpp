@@ -31,28 +31,24 @@ namespace irgrid {
 
 template <SimdIsa kIsa, Query kQuery, typename CellT>
 void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span<Hit> hits,
-                      std::span<RayWork> work) {
+                      std::span<RayWork> work, SimdRays lane_rays) {
   static_assert(kIsa == SimdIsa::avx512);
   simd::LaneWalk<simd::Avx512Lanes, kSimdWalkRaysInFlight / simd::Avx512Lanes::kLanes>::
-      template trace<kQuery, CellT>(grid, rays, hits, work);
+      template trace<kQuery, CellT>(grid, rays, hits, work, lane_rays);
 }
 
 template void trace_simd_lanes<SimdIsa::avx512, Query::closest, Cell>(const GridView&,
                                                                       std::span<const Ray>,
                                                                       std::span<Hit>,
-                                                                      std::span<RayWork>);
+                                                                      std::span<RayWork>, SimdRays);
 template void trace_simd_lanes<SimdIsa::avx512, Query::any, Cell>(const GridView&,
                                                                   std::span<const Ray>,
                                                                   std::span<Hit>,
-                                                                  std::span<RayWork>);
-template void trace_simd_lanes<SimdIsa::avx512, Query::closest, CompactCell>(const GridView&,
-                                                                             std::span<const Ray>,
-                                                                             std::span<Hit>,
-                                                                             std::span<RayWork>);
-template void trace_simd_lanes<SimdIsa::avx512, Query::any, CompactCell>(const GridView&,
-                                                                         std::span<const Ray>,
-                                                                         std::span<Hit>,
-                                                                         std::span<RayWork>);
+                                                                  std::span<RayWork>, SimdRays);
+template void trace_simd_lanes<SimdIsa::avx512, Query::closest, CompactCell>(
+    const GridView&, std::span<const Ray>, std::span<Hit>, std::span<RayWork>, SimdRays);
+template void trace_simd_lanes<SimdIsa::avx512, Query::any, CompactCell>(
+    const GridView&, std::span<const Ray>, std::span<Hit>, std::span<RayWork>, SimdRays);
 
 }  // namespace irgrid
 

@@ -313,32 +313,26 @@ struct LaneWalk {
                              // or t may have cancelled)
   };
 
-  /// intersect_watertight, lane-wise, for tests first + p (p < count <= L, first a multiple of
-  /// it) of `tests`, against the rays of their lanes, with the same operations in the same
-  /// order. Tests whose edge functions are not all nonzero numbers, or whose t may have
-  /// cancelled (t_needs_double), are left to the scalar test and its redos in double.
-  static void test_triangles(const GridView& grid, const Lanes& s, const TestList& tests, int first,
-                             int count, BatchHits& out) {
-    const M slots = V::lanes((1u << count) - 1);
-    const float* coords = &grid.triangles[0].p0.x;
-    const I lane = V::load(tests.lane + first);
-    const I prim = V::load(reinterpret_cast<const std::int32_t*>(tests.prim + first));
-    const I base = V::add(V::template shift_left<3>(prim), prim);  // 9 floats each
-    // Each test takes its lane's ray constants.
-    const auto ray_int = [&](const std::int32_t* v) { return V::permute(V::load(v), lane); };
-    const auto ray_float = [&](const float* v) { return V::permute(V::load(v), lane); };
-    const I kx = ray_int(s.axis[0]), ky = ray_int(s.axis[1]), kz = ray_int(s.axis[2]);
-    const F ox = ray_float(s.org_k[0]), oy = ray_float(s.org_k[1]), oz = ray_float(s.org_k[2]);
-    const F sx = ray_float(s.shear[0]), sy = ray_float(s.shear[1]), sz = ray_float(s.shear[2]);
+  /// A batch's rays, lane by lane: the WatertightRay values of each test's ray.
+  struct BatchRays {
+    I axis[3];  // kx, ky, kz
+    F org_k[3], shear[3], tmin, tmax;
+  };
+
+  /// intersect_watertight, lane-wise, for the tests of the lanes of `slots`: each lane's triangle
+  /// corners p[j] (x, y, z on the world axes kx, ky, kz of its ray, as shear_vertex reads them)
+  /// against its ray, with the same operations in the same order. Tests whose edge functions are
+  /// not all nonzero numbers, or whose t may have cancelled (t_needs_double), are left to the
+  /// scalar test and its redos in double. Both ways of feeding tests (test_listed_triangles,
+  /// test_one_triangle) end here, so they agree bit for bit.
+  static void intersect_lanes(const F (&px)[3], const F (&py)[3], const F (&pz)[3],
+                              const BatchRays& r, M slots, BatchHits& out) {
     F x[3], y[3], z[3], depth[3];
     for (int j = 0; j < 3; ++j) {  // shear_vertex for p0, p1, p2
-      const I vertex = V::add(base, V::splat(3 * j));
-      const F px = V::gather(coords, V::add(vertex, kx), slots);
-      const F py = V::gather(coords, V::add(vertex, ky), slots);
-      depth[j] = V::sub(V::gather(coords, V::add(vertex, kz), slots), oz);
-      x[j] = V::sub(V::sub(px, ox), V::mul(sx, depth[j]));
-      y[j] = V::sub(V::sub(py, oy), V::mul(sy, depth[j]));
-      z[j] = V::mul(sz, depth[j]);
+      depth[j] = V::sub(pz[j], r.org_k[2]);
+      x[j] = V::sub(V::sub(px[j], r.org_k[0]), V::mul(r.shear[0], depth[j]));
+      y[j] = V::sub(V::sub(py[j], r.org_k[1]), V::mul(r.shear[1], depth[j]));
+      z[j] = V::mul(r.shear[2], depth[j]);
     }
     // a = p0, b = p1, c = p2: u = c_x b_y - c_y b_x, v = a_x c_y - a_y c_x, w = b_x a_y - b_y a_x.
     const F u = V::sub(V::mul(x[2], y[1]), V::mul(y[2], x[1]));
@@ -362,16 +356,16 @@ struct LaneWalk {
     const F t_scaled = V::add(V::add(V::mul(u, z[0]), V::mul(v, z[1])), V::mul(w, z[2]));
     const F inv_det = V::div(V::splat(1.f), det);
     const F t = V::mul(t_scaled, inv_det);
-    const F tmin = ray_float(s.tmin), tmax = ray_float(s.tmax);
     const M nonzero_det = compare<_CMP_NEQ_UQ>(det, zero);
     // Tests whose t may have cancelled go to the scalar test too (its redo of t in double).
     const M inside =
         V::both(V::both(slots, nonzero_det), V::but_not(V::either(missed, scalar), V::all_lanes()));
     if (V::any(inside))
-      scalar = V::either(
-          scalar, V::both(inside, t_needs_double<V>(x, y, z, depth, det, inv_det, t, tmin, tmax)));
-    const M in_range = V::both(V::both(compare<_CMP_GE_OQ>(t, tmin), compare<_CMP_LE_OQ>(t, tmax)),
-                               V::both(compare<_CMP_LT_OQ>(t, V::splat(INFINITY)), nonzero_det));
+      scalar = V::either(scalar, V::both(inside, t_needs_double<V>(x, y, z, depth, det, inv_det, t,
+                                                                   r.tmin, r.tmax)));
+    const M in_range =
+        V::both(V::both(compare<_CMP_GE_OQ>(t, r.tmin), compare<_CMP_LE_OQ>(t, r.tmax)),
+                V::both(compare<_CMP_LT_OQ>(t, V::splat(INFINITY)), nonzero_det));
     const M hit = V::but_not(V::either(missed, scalar), in_range);
     V::store(out.t, t);
     V::store(out.u, V::mul(v, inv_det));
@@ -380,7 +374,70 @@ struct LaneWalk {
     out.scalar = V::bits(V::both(slots, scalar));
   }
 
-  /// intersect_watertight for lane l's ray, for the tests test_triangles leaves to it (with its
+  /// intersect_lanes for tests first + p (p < count <= L, first a multiple of it) of `tests`:
+  /// each against the ray of its lane, the triangles read with gathers.
+  static void test_listed_triangles(const GridView& grid, const Lanes& s, const TestList& tests,
+                                    int first, int count, BatchHits& out) {
+    const M slots = V::lanes((1u << count) - 1);
+    const float* coords = &grid.triangles[0].p0.x;
+    const I lane = V::load(tests.lane + first);
+    const I prim = V::load(reinterpret_cast<const std::int32_t*>(tests.prim + first));
+    const I base = V::add(V::template shift_left<3>(prim), prim);  // 9 floats each
+    // Each test takes its lane's ray constants.
+    const auto ray_int = [&](const std::int32_t* v) { return V::permute(V::load(v), lane); };
+    const auto ray_float = [&](const float* v) { return V::permute(V::load(v), lane); };
+    BatchRays r;
+    for (int k = 0; k < 3; ++k) {
+      r.axis[k] = ray_int(s.axis[k]);
+      r.org_k[k] = ray_float(s.org_k[k]);
+      r.shear[k] = ray_float(s.shear[k]);
+    }
+    r.tmin = ray_float(s.tmin);
+    r.tmax = ray_float(s.tmax);
+    F px[3], py[3], pz[3];
+    for (int j = 0; j < 3; ++j) {
+      const I vertex = V::add(base, V::splat(3 * j));
+      px[j] = V::gather(coords, V::add(vertex, r.axis[0]), slots);
+      py[j] = V::gather(coords, V::add(vertex, r.axis[1]), slots);
+      pz[j] = V::gather(coords, V::add(vertex, r.axis[2]), slots);
+    }
+    intersect_lanes(px, py, pz, r, slots, out);
+  }
+
+  /// The rays of a group's lanes as test_one_triangle reads them, with each lane's choice of
+  /// world axis per ray axis (kx, ky, kz) as masks: one = 1, two = 2, neither = 0.
+  struct alignas(64) LaneRays {
+    BatchRays rays;
+    M one[3], two[3];
+  };
+  static void load_lane_rays(const Lanes& s, LaneRays& out) {
+    for (int k = 0; k < 3; ++k) {
+      out.rays.axis[k] = V::load(s.axis[k]);
+      out.rays.org_k[k] = V::load(s.org_k[k]);
+      out.rays.shear[k] = V::load(s.shear[k]);
+      out.one[k] = V::equal(out.rays.axis[k], V::splat(1));
+      out.two[k] = V::equal(out.rays.axis[k], V::splat(2));
+    }
+    out.rays.tmin = V::load(s.tmin);
+    out.rays.tmax = V::load(s.tmax);
+  }
+
+  /// intersect_lanes of one triangle against the ray of every lane of `lanes`: the coordinates
+  /// are broadcast, not gathered (the test of rays that share a cell).
+  static void test_one_triangle(const TriangleVertices& tri, const LaneRays& r, M lanes,
+                                BatchHits& out) {
+    const Vec3<float>* corner[3] = {&tri.p0, &tri.p1, &tri.p2};
+    F px[3], py[3], pz[3];
+    for (int j = 0; j < 3; ++j) {
+      const F world[3] = {V::splat(corner[j]->x), V::splat(corner[j]->y), V::splat(corner[j]->z)};
+      F* on_axis[3] = {&px[j], &py[j], &pz[j]};
+      for (int k = 0; k < 3; ++k)
+        *on_axis[k] = V::select(r.two[k], V::select(r.one[k], world[0], world[1]), world[2]);
+    }
+    intersect_lanes(px, py, pz, r.rays, lanes, out);
+  }
+
+  /// intersect_watertight for lane l's ray, for the tests intersect_lanes leaves to it (with its
   /// redos in double).
   static bool scalar_test(const TriangleVertices& tri, const Lanes& s, int l,
                           TriangleHit<float>& hit) {
@@ -437,7 +494,52 @@ struct LaneWalk {
     std::uint32_t ray_of[L] = {};
     std::uint32_t active = 0;     // lanes with a walk
     std::uint32_t hit_lanes = 0;  // any hit: lanes that found one this round
+    // This round's cells tested one triangle for all their lanes (plan_shared_tests), when the
+    // round takes that way: the lanes in each, and its references.
+    int shared_cells = 0;
+    std::uint32_t shared_lanes[L];
+    std::int32_t shared_begin[L], shared_count[L];
   };
+
+  /// What a batch of gathered tests (test_listed_triangles) costs against a batch of one
+  /// triangle for all lanes (test_one_triangle), whose corners are broadcast. Tuned on Sponza's
+  /// camera rays on the Intel Xeon VM (1024 x 1024, 2 threads): 1 and 2 did best for 16 lanes,
+  /// 4 and 8 were slower; more broadcast tests leave too many lanes idle.
+  static constexpr int kGatheredBatchCost = L / 8;
+
+  /// Plans this round's tests of `group` cell by cell, one triangle for all lanes in the cell,
+  /// where that takes fewer batches, weighted by kGatheredBatchCost, than listing each lane's
+  /// tests and gathering them (rays that share cells, as camera rays do). Returns whether it
+  /// did; then the round's tests are not listed. Requests the planned triangles.
+  static bool plan_shared_tests(const GridView& grid, Group& group, I cell_refs) {
+    const LaneCells& c = group.c;
+    alignas(64) std::int32_t count[L];
+    V::store(count, cell_refs);
+    const I begin = V::load(c.begin), end = V::load(c.end);
+    std::uint32_t remaining = V::bits(V::greater(cell_refs, V::splat(0)));
+    int cells = 0, broadcast_batches = 0, tests = 0;
+    while (remaining != 0) {
+      const int l = __builtin_ctz(remaining);
+      const std::uint32_t same = V::bits(
+          V::both(V::both(V::equal(begin, V::splat(c.begin[l])), V::equal(end, V::splat(c.end[l]))),
+                  V::lanes(remaining)));
+      group.shared_lanes[cells] = same;
+      group.shared_begin[cells] = c.begin[l];
+      group.shared_count[cells] = count[l];
+      broadcast_batches += count[l];
+      tests += count[l] * __builtin_popcount(same);
+      remaining &= ~same;
+      ++cells;
+    }
+    if (cells == 0 || broadcast_batches > kGatheredBatchCost * ((tests + L - 1) / L)) return false;
+    group.shared_cells = cells;
+    for (int cell = 0; cell < cells; ++cell) {
+      const std::uint32_t* refs = grid.refs + group.shared_begin[cell];
+      for (int k = 0; k < group.shared_count[cell]; ++k)
+        __builtin_prefetch(grid.triangles + refs[k]);
+    }
+    return true;
+  }
 
   /// The cell of each active lane's voxel (lookup_cell, lane-wise), for every group: one gather
   /// per map level, then the cell's fields. The groups descend together, so that the gathers
@@ -513,7 +615,8 @@ struct LaneWalk {
   /// trace_simd_lanes of cpu/simd_walk.h.
   template <Query kQuery, typename CellT>
   static void trace(const GridView& grid, std::span<const Ray> rays, std::span<Hit> hits,
-                    std::span<RayWork> work) {
+                    std::span<RayWork> work, SimdRays lane_rays) {
+    const bool packets = lane_rays == SimdRays::packets;
     const CellT* cells = cell_array<CellT>(grid);
     const TriangleVertices* triangles = grid.triangles;
     const bool counted = !work.empty();
@@ -573,6 +676,23 @@ struct LaneWalk {
       }
       return started;
     };
+    // Keeps `hit` of triangle `id`, the test at `ordinal` among its cell's references, as the
+    // closest (or any) hit of lane l, as traverse_grid does: the nearer, or the lower id at equal
+    // t.
+    const auto keep_hit = [&](Group& group, int l, std::uint32_t id, const TriangleHit<float>& hit,
+                              int ordinal) {
+      Lanes& s = group.s;
+      const float best_t = s.best_t[l];
+      if (hit.t > best_t || (hit.t == best_t && id > std::uint32_t(s.best_prim[l]))) return;
+      s.best_t[l] = hit.t;
+      s.best_u[l] = hit.u;
+      s.best_v[l] = hit.v;
+      s.best_prim[l] = std::int32_t(id);
+      if constexpr (kQuery == Query::any) {
+        group.hit_lanes |= 1u << l;
+        group.triangles_tested[l] += ordinal + 1;  // the tests up to this hit
+      }
+    };
     // Runs the listed tests of `group` and keeps each lane's closest (or any) hit.
     const auto run_tests = [&](Group& group) {
       Lanes& s = group.s;
@@ -580,7 +700,7 @@ struct LaneWalk {
       BatchHits batch;
       for (int first = 0; first < list.size; first += L) {
         const int count = list.size - first < L ? list.size - first : L;
-        test_triangles(grid, s, list, first, count, batch);
+        test_listed_triangles(grid, s, list, first, count, batch);
         // Only the tests that hit, or need the scalar test, are looked at one by one, in order.
         for (std::uint32_t bits = batch.hits | batch.scalar; bits != 0; bits &= bits - 1) {
           const int p = __builtin_ctz(bits);
@@ -589,23 +709,42 @@ struct LaneWalk {
           const std::uint32_t id = list.prim[first + p];
           TriangleHit<float> hit{batch.t[p], batch.u[p], batch.v[p]};
           if ((batch.scalar >> p & 1) && !scalar_test(grid.triangles[id], s, l, hit)) continue;
-          const float best_t = s.best_t[l];
-          if (hit.t > best_t || (hit.t == best_t && id > std::uint32_t(s.best_prim[l]))) continue;
-          s.best_t[l] = hit.t;
-          s.best_u[l] = hit.u;
-          s.best_v[l] = hit.v;
-          s.best_prim[l] = std::int32_t(id);
-          if constexpr (kQuery == Query::any) {
-            group.hit_lanes |= 1u << l;
-            group.triangles_tested[l] += list.ordinal[first + p] + 1;  // the tests up to this hit
-          }
+          keep_hit(group, l, id, hit, list.ordinal[first + p]);
         }
       }
       list.size = 0;
     };
+    // Runs the tests plan_shared_tests planned for `group`, in each cell's reference order, and
+    // keeps each lane's closest (or any) hit.
+    const auto run_shared_tests = [&](Group& group) {
+      const Lanes& s = group.s;
+      LaneRays r;
+      load_lane_rays(s, r);
+      BatchHits batch;
+      for (int cell = 0; cell < group.shared_cells; ++cell) {
+        const std::uint32_t* refs = grid.refs + group.shared_begin[cell];
+        std::uint32_t lanes = group.shared_lanes[cell];
+        for (int k = 0; k < group.shared_count[cell]; ++k) {
+          if constexpr (kQuery == Query::any) {
+            lanes &= ~group.hit_lanes;
+            if (lanes == 0) break;
+          }
+          const std::uint32_t id = refs[k];
+          test_one_triangle(triangles[id], r, V::lanes(lanes), batch);
+          for (std::uint32_t bits = batch.hits | batch.scalar; bits != 0; bits &= bits - 1) {
+            const int l = __builtin_ctz(bits);
+            TriangleHit<float> hit{batch.t[l], batch.u[l], batch.v[l]};
+            if ((batch.scalar >> l & 1) && !scalar_test(triangles[id], s, l, hit)) continue;
+            keep_hit(group, l, id, hit, k);
+          }
+        }
+      }
+      group.shared_cells = 0;
+    };
     // Lists the tests of the cells of `group`, each lane's in its reference order, and requests
     // their triangles. Runs the tests early only when the list fills.
     const auto list_tests = [&](Group& group, I cell_refs) {
+      if (packets && plan_shared_tests(grid, group, cell_refs)) return;
       const LaneCells& c = group.c;
       TestList& list = group.list;
       if (!V::any(V::greater(cell_refs, V::splat(kCellRefsInOneGo)))) {
@@ -668,6 +807,7 @@ struct LaneWalk {
         Group& group = groups[g];
         if (group.active == 0) continue;
         if (group.list.size > 0) run_tests(group);
+        if (group.shared_cells > 0) run_shared_tests(group);
         const M lanes = V::lanes(group.active);
         // Every listed test counts, except those past an any-hit query's hit (counted above).
         const M whole_cells =
@@ -688,7 +828,10 @@ struct LaneWalk {
             work[ray] = {std::uint32_t(group.cells_visited[l]),
                          std::uint32_t(group.triangles_tested[l])};
         }
-        group.active = (group.active & ~ended) | start(group, ended);
+        if (!packets)
+          group.active = (group.active & ~ended) | start(group, ended);
+        else if ((group.active &= ~ended) == 0)
+          group.active = start(group, (1u << L) - 1);
         walking |= group.active != 0;
       }
     }

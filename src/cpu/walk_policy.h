@@ -4,8 +4,11 @@
 // Where the CPU has AVX2, every chunk walks in SIMD lanes (cpu/simd_walk.h), 16 of them where it
 // has AVX-512: on the 2-core Intel Xeon VM the 8-lane walk beat the other two ways on every ray
 // kind of Sponza and Conference, and 16 lanes ran 1.2-1.8x as fast as 8 on Sponza, Conference
-// and Crown (Sponza's ao and diffuse rays: 1.0-1.1x). Elsewhere the choice is between the other
-// two.
+// and Crown (Sponza's ao and diffuse rays: 1.0-1.1x). The lanes walk packets where the chunk's
+// rays are coherent (SimdRays::packets: on the same VM Sponza's and Conference's camera rays of
+// view 1 ran 17-21% faster at 1024 x 1024) and independently otherwise (packets made random rays
+// about a third slower: their lanes idle until the group's last walk ends). Without AVX2 the
+// choice is between the other two ways.
 // Interleaving (cpu/interleaved_walk.h) overlaps the cache misses of different rays, at the
 // price of bookkeeping: about 14% more time with a single lane on Sponza's primary rays. It pays
 // where the rays miss the caches: incoherent rays, and any rays on a grid far larger than the
@@ -91,10 +94,13 @@ template <Query kQuery, typename CellT>
 void trace_chunk(const GridView& grid, std::size_t grid_bytes, CpuWalk walk,
                  std::span<const Ray> rays, std::span<Hit> hits, std::span<RayWork> work) {
   const auto isa = simd_walk_fits(grid.info) ? simd_isa_of(walk) : std::nullopt;
-  if (isa == SimdIsa::avx512)
-    return trace_simd_lanes<SimdIsa::avx512, kQuery, CellT>(grid, rays, hits, work);
-  if (isa == SimdIsa::avx2)
-    return trace_simd_lanes<SimdIsa::avx2, kQuery, CellT>(grid, rays, hits, work);
+  if (isa) {
+    const SimdRays lane_rays =
+        rays_are_coherent(grid.info, rays) ? SimdRays::packets : SimdRays::independent;
+    if (isa == SimdIsa::avx512)
+      return trace_simd_lanes<SimdIsa::avx512, kQuery, CellT>(grid, rays, hits, work, lane_rays);
+    return trace_simd_lanes<SimdIsa::avx2, kQuery, CellT>(grid, rays, hits, work, lane_rays);
+  }
   if (walk == CpuWalk::single) return trace_one_by_one<kQuery, CellT>(grid, rays, hits, work);
   if (walk == CpuWalk::interleaved) return trace_interleaved<kQuery, CellT>(grid, rays, hits, work);
   if (grid_bytes <= kCoherentWalkMaxGridBytes && rays_are_coherent(grid.info, rays))
