@@ -325,8 +325,14 @@ struct LaneWalk {
   /// not all nonzero numbers, or whose t may have cancelled (t_needs_double), are left to the
   /// scalar test and its redos in double. Both ways of feeding tests (test_listed_triangles,
   /// test_one_triangle) end here, so they agree bit for bit.
-  static void intersect_lanes(const F (&px)[3], const F (&py)[3], const F (&pz)[3],
-                              const BatchRays& r, M slots, BatchHits& out) {
+  /// What intersect_lanes finds, in registers: t, u, v where `hit` has the lane.
+  struct LaneHits {
+    F t, u, v;
+    M hit;     // intersect_watertight returns true
+    M scalar;  // left to the scalar test
+  };
+  static LaneHits intersect_lanes(const F (&px)[3], const F (&py)[3], const F (&pz)[3],
+                                  const BatchRays& r, M slots) {
     F x[3], y[3], z[3], depth[3];
     for (int j = 0; j < 3; ++j) {  // shear_vertex for p0, p1, p2
       depth[j] = V::sub(pz[j], r.org_k[2]);
@@ -367,11 +373,7 @@ struct LaneWalk {
         V::both(V::both(compare<_CMP_GE_OQ>(t, r.tmin), compare<_CMP_LE_OQ>(t, r.tmax)),
                 V::both(compare<_CMP_LT_OQ>(t, V::splat(INFINITY)), nonzero_det));
     const M hit = V::but_not(V::either(missed, scalar), in_range);
-    V::store(out.t, t);
-    V::store(out.u, V::mul(v, inv_det));
-    V::store(out.v, V::mul(w, inv_det));
-    out.hits = V::bits(V::both(slots, hit));
-    out.scalar = V::bits(V::both(slots, scalar));
+    return {t, V::mul(v, inv_det), V::mul(w, inv_det), V::both(slots, hit), V::both(slots, scalar)};
   }
 
   /// intersect_lanes for tests first + p (p < count <= L, first a multiple of it) of `tests`:
@@ -401,7 +403,12 @@ struct LaneWalk {
       py[j] = V::gather(coords, V::add(vertex, r.axis[1]), slots);
       pz[j] = V::gather(coords, V::add(vertex, r.axis[2]), slots);
     }
-    intersect_lanes(px, py, pz, r, slots, out);
+    const LaneHits found = intersect_lanes(px, py, pz, r, slots);
+    V::store(out.t, found.t);
+    V::store(out.u, found.u);
+    V::store(out.v, found.v);
+    out.hits = V::bits(found.hit);
+    out.scalar = V::bits(found.scalar);
   }
 
   /// The rays of a group's lanes as test_one_triangle reads them, with each lane's choice of
@@ -424,8 +431,7 @@ struct LaneWalk {
 
   /// intersect_lanes of one triangle against the ray of every lane of `lanes`: the coordinates
   /// are broadcast, not gathered (the test of rays that share a cell).
-  static void test_one_triangle(const TriangleVertices& tri, const LaneRays& r, M lanes,
-                                BatchHits& out) {
+  static LaneHits test_one_triangle(const TriangleVertices& tri, const LaneRays& r, M lanes) {
     const Vec3<float>* corner[3] = {&tri.p0, &tri.p1, &tri.p2};
     F px[3], py[3], pz[3];
     for (int j = 0; j < 3; ++j) {
@@ -434,7 +440,7 @@ struct LaneWalk {
       for (int k = 0; k < 3; ++k)
         *on_axis[k] = V::select(r.two[k], V::select(r.one[k], world[0], world[1]), world[2]);
     }
-    intersect_lanes(px, py, pz, r.rays, lanes, out);
+    return intersect_lanes(px, py, pz, r.rays, lanes);
   }
 
   /// intersect_watertight for lane l's ray, for the tests intersect_lanes leaves to it (with its
@@ -503,9 +509,10 @@ struct LaneWalk {
 
   /// What a batch of gathered tests (test_listed_triangles) costs against a batch of one
   /// triangle for all lanes (test_one_triangle), whose corners are broadcast. Tuned on Sponza's
-  /// camera rays on the Intel Xeon VM (1024 x 1024, 2 threads): 1 and 2 did best for 16 lanes,
-  /// 4 and 8 were slower; more broadcast tests leave too many lanes idle.
-  static constexpr int kGatheredBatchCost = L / 8;
+  /// camera rays on the Intel Xeon VM (1024 x 1024): 2 did best with 16 lanes (1, 3, 4 and 6
+  /// were 1-18% slower) and with 8 (1 and 3 were 1-4% slower); more broadcast tests leave too
+  /// many lanes idle.
+  static constexpr int kGatheredBatchCost = 2;
 
   /// Plans this round's tests of `group` cell by cell, one triangle for all lanes in the cell,
   /// where that takes fewer batches, weighted by kGatheredBatchCost, than listing each lane's
@@ -697,10 +704,14 @@ struct LaneWalk {
     const auto run_tests = [&](Group& group) {
       Lanes& s = group.s;
       TestList& list = group.list;
-      BatchHits batch;
-      for (int first = 0; first < list.size; first += L) {
-        const int count = list.size - first < L ? list.size - first : L;
-        test_listed_triangles(grid, s, list, first, count, batch);
+      // All batches first, then their hits: a batch's hits decide branches, and looking at them
+      // between batches would hold each batch back until the one before it had finished.
+      BatchHits batches[TestList::kCapacity / L];
+      for (int first = 0, b = 0; first < list.size; first += L, ++b)
+        test_listed_triangles(grid, s, list, first, list.size - first < L ? list.size - first : L,
+                              batches[b]);
+      for (int first = 0, b = 0; first < list.size; first += L, ++b) {
+        const BatchHits& batch = batches[b];
         // Only the tests that hit, or need the scalar test, are looked at one by one, in order.
         for (std::uint32_t bits = batch.hits | batch.scalar; bits != 0; bits &= bits - 1) {
           const int p = __builtin_ctz(bits);
@@ -717,28 +728,60 @@ struct LaneWalk {
     // Runs the tests plan_shared_tests planned for `group`, in each cell's reference order, and
     // keeps each lane's closest (or any) hit.
     const auto run_shared_tests = [&](Group& group) {
-      const Lanes& s = group.s;
+      Lanes& s = group.s;
       LaneRays r;
       load_lane_rays(s, r);
-      BatchHits batch;
+      // keep_hit lane-wise (each lane has one test per triangle), on the best hits in registers:
+      // no branch on a test's outcome, so the tests of consecutive triangles overlap.
+      F best_t = V::load(s.best_t), best_u = V::load(s.best_u), best_v = V::load(s.best_v);
+      I best_prim = V::load(s.best_prim);
+      I tested = V::load(group.triangles_tested);
+      const I no_hit = V::splat(std::int32_t(kNoHit));
       for (int cell = 0; cell < group.shared_cells; ++cell) {
         const std::uint32_t* refs = grid.refs + group.shared_begin[cell];
-        std::uint32_t lanes = group.shared_lanes[cell];
+        M lanes = V::lanes(group.shared_lanes[cell]);
         for (int k = 0; k < group.shared_count[cell]; ++k) {
           if constexpr (kQuery == Query::any) {
-            lanes &= ~group.hit_lanes;
-            if (lanes == 0) break;
+            lanes = V::but_not(V::lanes(group.hit_lanes), lanes);
+            if (!V::any(lanes)) break;
           }
           const std::uint32_t id = refs[k];
-          test_one_triangle(triangles[id], r, V::lanes(lanes), batch);
-          for (std::uint32_t bits = batch.hits | batch.scalar; bits != 0; bits &= bits - 1) {
-            const int l = __builtin_ctz(bits);
-            TriangleHit<float> hit{batch.t[l], batch.u[l], batch.v[l]};
-            if ((batch.scalar >> l & 1) && !scalar_test(triangles[id], s, l, hit)) continue;
-            keep_hit(group, l, id, hit, k);
+          LaneHits found = test_one_triangle(triangles[id], r, lanes);
+          if (V::any(found.scalar)) {  // rare: edge functions of zero, or t in doubt
+            alignas(64) float t[L], u[L], v[L];
+            V::store(t, found.t);
+            V::store(u, found.u);
+            V::store(v, found.v);
+            for (std::uint32_t bits = V::bits(found.scalar); bits != 0; bits &= bits - 1) {
+              const int l = __builtin_ctz(bits);
+              TriangleHit<float> hit{t[l], u[l], v[l]};
+              if (!scalar_test(triangles[id], s, l, hit)) continue;
+              t[l] = hit.t, u[l] = hit.u, v[l] = hit.v;
+              found.hit = V::either(found.hit, V::lanes(1u << l));
+            }
+            found.t = V::load(t), found.u = V::load(u), found.v = V::load(v);
+          }
+          // Ids fit 31 bits, so `id` above the best one unsigned is: a best hit, with a lower id.
+          const I ids = V::splat(std::int32_t(id));
+          const M id_above = V::but_not(V::equal(best_prim, no_hit), V::greater(ids, best_prim));
+          const M nearer = V::either(compare<_CMP_LT_OQ>(found.t, best_t),
+                                     V::but_not(id_above, compare<_CMP_EQ_OQ>(found.t, best_t)));
+          const M kept = V::both(found.hit, nearer);
+          best_t = V::select(kept, best_t, found.t);
+          best_u = V::select(kept, best_u, found.u);
+          best_v = V::select(kept, best_v, found.v);
+          best_prim = V::select(kept, best_prim, ids);
+          if constexpr (kQuery == Query::any) {
+            group.hit_lanes |= V::bits(kept);
+            tested = V::add(tested, V::keep(kept, V::splat(k + 1)));  // the tests up to this hit
           }
         }
       }
+      V::store(s.best_t, best_t);
+      V::store(s.best_u, best_u);
+      V::store(s.best_v, best_v);
+      V::store(s.best_prim, best_prim);
+      V::store(group.triangles_tested, tested);
       group.shared_cells = 0;
     };
     // Lists the tests of the cells of `group`, each lane's in its reference order, and requests
