@@ -51,7 +51,7 @@ Backend parse_backend(std::string_view name);
 
 /// How the CPU backend walks rays through a grid. The hits are the same whichever it is.
 /// `automatic`: 16 AVX-512 or 8 AVX2 lanes where the CPU has them (walking coherent rays, such
-/// as camera rays in image order, as packets), else one ray at a time for
+/// as camera rays in image order, as packets on grids of up to 64 MiB), else one ray at a time for
 /// coherent rays on a cache-sized grid and interleaved walks otherwise. The others force one
 /// way, to compare them; a SIMD walk the CPU lacks makes make_accelerator throw.
 enum class CpuWalk { automatic, avx512, avx2, single, interleaved };

@@ -5,10 +5,12 @@
 // has AVX-512: on the 2-core Intel Xeon VM the 8-lane walk beat the other two ways on every ray
 // kind of Sponza and Conference, and 16 lanes ran 1.2-1.8x as fast as 8 on Sponza, Conference
 // and Crown (Sponza's ao and diffuse rays: 1.0-1.1x). The lanes walk packets where the chunk's
-// rays are coherent (SimdRays::packets: on the same VM Sponza's and Conference's camera rays of
-// view 1 ran 17-21% faster at 1024 x 1024) and independently otherwise (packets made random rays
-// about a third slower: their lanes idle until the group's last walk ends). Without AVX2 the
-// choice is between the other two ways.
+// rays are coherent and the grid is cache-sized (SimdRays::packets: on the same VM Sponza's and
+// Conference's camera rays ran 8-33% faster at 1024 x 1024), and independently otherwise:
+// packets made random rays about a third slower (their lanes idle until the group's last walk
+// ends), and on Crown's 298 MiB grid, whose walks wait on memory, camera rays gained nothing at
+// 1024 x 1024 and lost about 5% at 512 x 512. Without AVX2 the choice is between the other two
+// ways.
 // Interleaving (cpu/interleaved_walk.h) overlaps the cache misses of different rays, at the
 // price of bookkeeping: about 14% more time with a single lane on Sponza's primary rays. It pays
 // where the rays miss the caches: incoherent rays, and any rays on a grid far larger than the
@@ -30,9 +32,9 @@
 
 namespace irgrid {
 
-/// Grids up to this size walk coherent rays one at a time (above it, the caches hold too
-/// little of the grid for neighbouring rays to help each other). Sponza (26 MiB) and Conference
-/// (19 MiB) lie below, Crown (298 MiB) above.
+/// Grids up to this size walk coherent rays one at a time, or as SIMD packets (above it, the caches
+/// hold too little of the grid for neighbouring rays to help each other). Sponza (26 MiB) and
+/// Conference (19 MiB) lie below, Crown (298 MiB) above.
 inline constexpr std::size_t kCoherentWalkMaxGridBytes = std::size_t(64) << 20;
 
 /// Whether most consecutive rays of `rays` start within a voxel of each other and point the
@@ -96,7 +98,9 @@ void trace_chunk(const GridView& grid, std::size_t grid_bytes, CpuWalk walk,
   const auto isa = simd_walk_fits(grid.info) ? simd_isa_of(walk) : std::nullopt;
   if (isa) {
     const SimdRays lane_rays =
-        rays_are_coherent(grid.info, rays) ? SimdRays::packets : SimdRays::independent;
+        grid_bytes <= kCoherentWalkMaxGridBytes && rays_are_coherent(grid.info, rays)
+            ? SimdRays::packets
+            : SimdRays::independent;
     if (isa == SimdIsa::avx512)
       return trace_simd_lanes<SimdIsa::avx512, kQuery, CellT>(grid, rays, hits, work, lane_rays);
     return trace_simd_lanes<SimdIsa::avx2, kQuery, CellT>(grid, rays, hits, work, lane_rays);
