@@ -319,18 +319,18 @@ struct LaneWalk {
     F org_k[3], shear[3], tmin, tmax;
   };
 
-  /// intersect_watertight, lane-wise, for the tests of the lanes of `slots`: each lane's triangle
-  /// corners p[j] (x, y, z on the world axes kx, ky, kz of its ray, as shear_vertex reads them)
-  /// against its ray, with the same operations in the same order. Tests whose edge functions are
-  /// not all nonzero numbers, or whose t may have cancelled (t_needs_double), are left to the
-  /// scalar test and its redos in double. Both ways of feeding tests (test_listed_triangles,
-  /// test_one_triangle) end here, so they agree bit for bit.
   /// What intersect_lanes finds, in registers: t, u, v where `hit` has the lane.
   struct LaneHits {
     F t, u, v;
     M hit;     // intersect_watertight returns true
     M scalar;  // left to the scalar test
   };
+  /// intersect_watertight, lane-wise, for the tests of the lanes of `slots`: each lane's triangle
+  /// corners p[j] (x, y, z on the world axes kx, ky, kz of its ray, as shear_vertex reads them)
+  /// against its ray, with the same operations in the same order. Tests whose edge functions are
+  /// not all nonzero numbers, or whose t may have cancelled (t_needs_double), are left to the
+  /// scalar test and its redos in double. Both ways of feeding tests (test_listed_triangles,
+  /// test_one_triangle) end here, so they agree bit for bit.
   static LaneHits intersect_lanes(const F (&px)[3], const F (&py)[3], const F (&pz)[3],
                                   const BatchRays& r, M slots) {
     F x[3], y[3], z[3], depth[3];
@@ -683,23 +683,6 @@ struct LaneWalk {
       }
       return started;
     };
-    // Keeps `hit` of triangle `id`, the test at `ordinal` among its cell's references, as the
-    // closest (or any) hit of lane l, as traverse_grid does: the nearer, or the lower id at equal
-    // t.
-    const auto keep_hit = [&](Group& group, int l, std::uint32_t id, const TriangleHit<float>& hit,
-                              int ordinal) {
-      Lanes& s = group.s;
-      const float best_t = s.best_t[l];
-      if (hit.t > best_t || (hit.t == best_t && id > std::uint32_t(s.best_prim[l]))) return;
-      s.best_t[l] = hit.t;
-      s.best_u[l] = hit.u;
-      s.best_v[l] = hit.v;
-      s.best_prim[l] = std::int32_t(id);
-      if constexpr (kQuery == Query::any) {
-        group.hit_lanes |= 1u << l;
-        group.triangles_tested[l] += ordinal + 1;  // the tests up to this hit
-      }
-    };
     // Runs the listed tests of `group` and keeps each lane's closest (or any) hit.
     const auto run_tests = [&](Group& group) {
       Lanes& s = group.s;
@@ -720,7 +703,17 @@ struct LaneWalk {
           const std::uint32_t id = list.prim[first + p];
           TriangleHit<float> hit{batch.t[p], batch.u[p], batch.v[p]};
           if ((batch.scalar >> p & 1) && !scalar_test(grid.triangles[id], s, l, hit)) continue;
-          keep_hit(group, l, id, hit, list.ordinal[first + p]);
+          // As traverse_grid: the nearer hit, or the lower id at equal t.
+          const float best_t = s.best_t[l];
+          if (hit.t > best_t || (hit.t == best_t && id > std::uint32_t(s.best_prim[l]))) continue;
+          s.best_t[l] = hit.t;
+          s.best_u[l] = hit.u;
+          s.best_v[l] = hit.v;
+          s.best_prim[l] = std::int32_t(id);
+          if constexpr (kQuery == Query::any) {
+            group.hit_lanes |= 1u << l;
+            group.triangles_tested[l] += list.ordinal[first + p] + 1;  // the tests up to this hit
+          }
         }
       }
       list.size = 0;
@@ -731,8 +724,9 @@ struct LaneWalk {
       Lanes& s = group.s;
       LaneRays r;
       load_lane_rays(s, r);
-      // keep_hit lane-wise (each lane has one test per triangle), on the best hits in registers:
-      // no branch on a test's outcome, so the tests of consecutive triangles overlap.
+      // run_tests' rule for the closest hit, lane-wise (each lane has one test per triangle), on
+      // the best hits in registers: no branch on a test's outcome, so the tests of consecutive
+      // triangles overlap.
       F best_t = V::load(s.best_t), best_u = V::load(s.best_u), best_v = V::load(s.best_v);
       I best_prim = V::load(s.best_prim);
       I tested = V::load(group.triangles_tested);

@@ -61,6 +61,13 @@ inline bool rays_are_coherent(const GridInfo& info, std::span<const Ray> rays) {
   return 4 * coherent >= 3 * sampled;
 }
 
+/// Whether a chunk walks as coherent rays: `rays` are (rays_are_coherent) and the grid's arrays,
+/// `grid_bytes`, take at most kCoherentWalkMaxGridBytes.
+inline bool walks_as_coherent(const GridInfo& info, std::size_t grid_bytes,
+                              std::span<const Ray> rays) {
+  return grid_bytes <= kCoherentWalkMaxGridBytes && rays_are_coherent(info, rays);
+}
+
 /// The instruction set `walk` (AcceleratorOptions::cpu_walk) runs its SIMD lanes in on this CPU,
 /// for grids that fit the SIMD walk; none where it walks one ray at a time or interleaved, or
 /// where the CPU lacks the instruction set.
@@ -98,16 +105,14 @@ void trace_chunk(const GridView& grid, std::size_t grid_bytes, CpuWalk walk,
   const auto isa = simd_walk_fits(grid.info) ? simd_isa_of(walk) : std::nullopt;
   if (isa) {
     const SimdRays lane_rays =
-        grid_bytes <= kCoherentWalkMaxGridBytes && rays_are_coherent(grid.info, rays)
-            ? SimdRays::packets
-            : SimdRays::independent;
+        walks_as_coherent(grid.info, grid_bytes, rays) ? SimdRays::packets : SimdRays::independent;
     if (isa == SimdIsa::avx512)
       return trace_simd_lanes<SimdIsa::avx512, kQuery, CellT>(grid, rays, hits, work, lane_rays);
     return trace_simd_lanes<SimdIsa::avx2, kQuery, CellT>(grid, rays, hits, work, lane_rays);
   }
   if (walk == CpuWalk::single) return trace_one_by_one<kQuery, CellT>(grid, rays, hits, work);
   if (walk == CpuWalk::interleaved) return trace_interleaved<kQuery, CellT>(grid, rays, hits, work);
-  if (grid_bytes <= kCoherentWalkMaxGridBytes && rays_are_coherent(grid.info, rays))
+  if (walks_as_coherent(grid.info, grid_bytes, rays))
     trace_one_by_one<kQuery, CellT>(grid, rays, hits, work);
   else
     trace_interleaved<kQuery, CellT>(grid, rays, hits, work);
