@@ -6,6 +6,8 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
 #include <numeric>
@@ -450,6 +452,41 @@ TEST(HostPool, ExecutorBuffersComeFromThePoolAndGoBackToIt) {
   EXPECT_EQ(static_cast<const void*>(again.data()), first);
   EXPECT_EQ(pool.fresh_allocations(), fresh);
 }
+
+// Sanitizers bring allocators of their own, with their own ways of returning pages.
+#if defined(__linux__) && defined(__GLIBC__) && !defined(__SANITIZE_ADDRESS__) && \
+    !defined(__SANITIZE_THREAD__)
+/// The process's resident bytes (/proc/self/statm).
+std::uint64_t resident_bytes() {
+  unsigned long long size = 0, resident = 0;
+  std::FILE* statm = std::fopen("/proc/self/statm", "r");
+  if (!statm) return 0;
+  const int read = std::fscanf(statm, "%llu %llu", &size, &resident);
+  std::fclose(statm);
+  return read == 2 ? resident * 4096ull : 0;
+}
+
+TEST(HostPool, TrimReturnsTheHeapPagesOfSmallBlocks) {
+  // Small blocks live in malloc's heap, and a block still in use above them keeps the heap from
+  // shrinking from its top: their pages stay resident unless malloc is asked to return them.
+  constexpr std::size_t kBlock = 64 << 10, kCount = 2048;  // 128 MiB
+  HostPool pool;
+  std::vector<void*> blocks;
+  for (std::size_t k = 0; k < kCount; ++k) {
+    blocks.push_back(pool.allocate(kBlock));
+    std::memset(blocks.back(), 1, kBlock);
+  }
+  void* above = std::malloc(64);
+  const std::uint64_t in_use = resident_bytes();
+  ASSERT_GT(in_use, kBlock * kCount);
+  for (void* block : blocks)
+    pool.release(block, kBlock);
+  pool.trim();
+  const std::uint64_t trimmed = resident_bytes();
+  std::free(above);
+  EXPECT_LT(trimmed + kBlock * kCount * 3 / 4, in_use);
+}
+#endif
 
 }  // namespace
 }  // namespace irgrid

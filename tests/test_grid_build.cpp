@@ -473,29 +473,87 @@ TEST(GridLimits, BudgetLimitedOctreesEqualEitherWay) {
   }
 }
 
+/// What build_initial_grid hands the depth-first octrees of `spec`: the top grid, its pairs
+/// sorted by top cell, the depths and the octree rule.
+struct DepthFirstInputs {
+  CpuExecutor exec;
+  GridArrays<CpuExecutor> grid;
+  RefPairs<CpuExecutor> pairs;
+  OctreeDepths<CpuExecutor> depths;
+  std::vector<std::uint32_t> first;  ///< each top cell's first pair
+  BuildConfig config;
+
+  explicit DepthFirstInputs(const std::string& spec, const BuildConfig& settings = {})
+      : config(settings) {
+    gather_triangles(load_scene(spec).mesh(), grid.triangles);
+    grid.budget_bytes = construction_budget(config, grid.triangles.size(), exec.memory_budget());
+    auto counts = plan_top_grid_within_budget(exec, grid, config);
+    pairs = emit_top_level_refs(exec, grid.triangles.data(), grid.info, std::move(counts.offsets),
+                                counts.total);
+    depths = plan_octree_depths(exec, grid.info, pairs, config);
+    exec.sort_pairs("pairs", pairs.cell.data(), pairs.tri.data(), pairs.count, 32);
+    first.resize(top_cells());
+    exec.exclusive_scan("first", depths.refs_per_top_cell.data(), first.data(), top_cells());
+  }
+  std::uint32_t top_cells() const {
+    return std::uint32_t(grid.info.top_dims[0]) * std::uint32_t(grid.info.top_dims[1]) *
+           std::uint32_t(grid.info.top_dims[2]);
+  }
+  OctreeRule rule() const {
+    return {depths.per_top_cell.data(), false, config.split_refs, depths.count_split,
+            kUnpaidSplitRefs};
+  }
+  /// The depth-first octrees within `budget` (BudgetExceeded otherwise).
+  TopCellOctrees<CpuExecutor> octrees(std::uint64_t budget) {
+    return build_top_cell_octrees(exec, grid.info, grid.triangles.data(), pairs,
+                                  depths.refs_per_top_cell.data(), rule(), budget);
+  }
+};
+
 /// Whether the depth-first build's pilot predicts that the octrees of `spec` pass their budget,
 /// from the inputs build_initial_grid gives it.
 bool pilot_predicts_exceeding(const std::string& spec) {
-  CpuExecutor exec;
-  GridArrays<CpuExecutor> grid;
-  gather_triangles(load_scene(spec).mesh(), grid.triangles);
-  const BuildConfig config;
-  grid.budget_bytes = construction_budget(config, grid.triangles.size(), exec.memory_budget());
-  auto counts = plan_top_grid_within_budget(exec, grid, config);
-  auto pairs = emit_top_level_refs(exec, grid.triangles.data(), grid.info,
-                                   std::move(counts.offsets), counts.total);
-  const auto depths = plan_octree_depths(exec, grid.info, pairs, config);
-  const OctreeRule rule{depths.per_top_cell.data(), false, config.split_refs, depths.count_split,
-                        kUnpaidSplitRefs};
-  const std::uint32_t top_cells = std::uint32_t(grid.info.top_dims[0]) *
-                                  std::uint32_t(grid.info.top_dims[1]) *
-                                  std::uint32_t(grid.info.top_dims[2]);
-  exec.sort_pairs("pairs", pairs.cell.data(), pairs.tri.data(), pairs.count, 32);
-  std::vector<std::uint32_t> first(top_cells);
-  exec.exclusive_scan("first", depths.refs_per_top_cell.data(), first.data(), top_cells);
+  DepthFirstInputs in(spec);
   return depth_first_detail::pilot_predicts_budget_exceeded(
-      exec, grid.info, grid.triangles.data(), rule, pairs.cell.data(), pairs.tri.data(),
-      first.data(), depths.refs_per_top_cell.data(), pairs.count, grid.budget_bytes);
+      in.exec, in.grid.info, in.grid.triangles.data(), in.rule(), in.pairs.cell.data(),
+      in.pairs.tri.data(), in.first.data(), in.depths.refs_per_top_cell.data(), in.pairs.count,
+      in.grid.budget_bytes);
+}
+
+/// octree_peak_bytes of complete depth-first octrees.
+std::uint64_t octree_bytes(const TopCellOctrees<CpuExecutor>& octrees) {
+  std::uint64_t entries = 0, cells = 0, refs = 0;
+  for (const auto& chunk : octrees.chunks)
+    for (const auto& level : chunk.levels)
+      entries += level.size();
+  for (std::uint32_t t = 0; t < octrees.top_cells; ++t)
+    cells += octrees.cells_per_top[t], refs += octrees.refs_per_top[t];
+  return octree_peak_bytes(entries, cells, refs);
+}
+
+TEST(GridLimits, DepthFirstOctreesProjectedPastTheBudgetStopEarly) {
+  // Deep octrees over a hairball: many times the top level, so the pilot leaves them alone
+  // (it runs only past 16 times the top level) and only the projection can stop them early.
+  BuildConfig deep;
+  deep.lambda1 = 0.01f;
+  deep.lambda2 = 16;
+  DepthFirstInputs in("builtin:hairball:20000", deep);
+  const std::uint64_t complete = octree_bytes(in.octrees(std::uint64_t(1) << 60));
+  const std::uint64_t top_level = octree_peak_bytes(in.top_cells(), in.top_cells(), in.pairs.count);
+  ASSERT_GT(complete, 32 * top_level) << "the pilot would run";
+  // Half the octrees' bytes: the build stops on the projection, long before its totals pass.
+  try {
+    in.octrees(complete / 2);
+    FAIL() << "octrees of twice the budget were built";
+  } catch (const depth_first_detail::BudgetExceeded& stop) {
+    EXPECT_GT(stop.bytes, 0u) << "stopped by the pilot";
+    EXPECT_LT(stop.bytes, complete / 4) << "stopped by the totals, not the projection";
+  }
+  // A budget they fit with room to spare: no projection stops them.
+  EXPECT_EQ(octree_bytes(in.octrees(complete + complete / 4)), complete);
+  EXPECT_TRUE(depth_first_detail::projection_passes_budget(200, 1, 8, 1000));
+  EXPECT_FALSE(depth_first_detail::projection_passes_budget(200, 1, 9, 1000)) << "under 1/8";
+  EXPECT_FALSE(depth_first_detail::projection_passes_budget(100, 1, 8, 1000));
 }
 
 TEST(GridLimits, ALevelStopsItsTestsEarlyWithTheSameOctrees) {

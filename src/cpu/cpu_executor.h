@@ -71,6 +71,12 @@ class CpuExecutor {
     if (pool_) pool_->set_cache_limit(bytes);
   }
 
+  /// Gives the pool's cached blocks back to the system (HostPool::trim): after the depth-first
+  /// octrees are abandoned, their many small blocks fit none of the level-by-level buffers.
+  void release_cached_memory() const {
+    if (pool_) pool_->trim();
+  }
+
   /// Calls body(i) once for every i in [0, n), in parallel and in no particular order.
   /// Bodies must not write to the same location; they may run concurrently.
   template <typename F>

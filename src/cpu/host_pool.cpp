@@ -4,6 +4,10 @@
 #include <bit>
 #include <new>
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 #include "cpu/memory_meter.h"
 
 namespace irgrid {
@@ -14,6 +18,20 @@ constexpr std::size_t kSmallAlignment = 64;  // a cache line: SIMD loads never s
 
 std::size_t alignment_for(std::size_t class_size) {
   return class_size >= kHugePageBytes ? kHugePageBytes : kSmallAlignment;
+}
+
+/// Bytes of small blocks given back to malloc after which the pool asks it to return the free
+/// pages of its heaps to the system (return_heap_pages).
+constexpr std::uint64_t kHeapReturnBytes = std::uint64_t(256) << 20;
+
+/// Blocks under the huge-page size live in malloc's heaps, which give the system back only
+/// their top: the free pages below stay resident. The depth-first octrees of a 10M-triangle
+/// hairball left 4.8 GiB of them behind when the build went on level by level, on top of the
+/// budget the pool holds (glibc's malloc_trim also releases free pages inside the heaps).
+void return_heap_pages() noexcept {
+#if defined(__GLIBC__)
+  malloc_trim(0);
+#endif
 }
 
 }  // namespace
@@ -34,6 +52,12 @@ void* HostPool::system_allocate(std::size_t class_size) {
 
 void HostPool::system_release(void* pointer, std::size_t class_size) noexcept {
   ::operator delete(pointer, std::align_val_t(alignment_for(class_size)));
+  if (class_size >= kHugePageBytes) return;
+  heap_released_ += class_size;
+  if (heap_released_ >= kHeapReturnBytes) {
+    heap_released_ = 0;
+    return_heap_pages();
+  }
 }
 
 void* HostPool::allocate(std::size_t bytes) {
@@ -88,6 +112,9 @@ void HostPool::trim() noexcept {
       system_release(block.pointer, size);
   cached_.clear();
   cached_bytes_ = 0;
+  // Also the pages of blocks the build freed to malloc directly (its octree builders' stacks).
+  heap_released_ = 0;
+  return_heap_pages();
 }
 
 void HostPool::set_cache_limit(std::uint64_t bytes) noexcept {

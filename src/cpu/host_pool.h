@@ -21,7 +21,10 @@ namespace irgrid {
 /// Blocks more than twice as large stay cached for requests of their size. With a cache limit
 /// (set_cache_limit), the blocks the pool holds, given out and cached, stay within it wherever
 /// caching is what would pass it: the least recently freed cached blocks go back to the system
-/// first. Thread-safe: the octree builder's threads grow their buffers concurrently.
+/// first. Blocks under the huge-page size come from malloc, whose heaps keep the pages of freed
+/// blocks resident: after giving back 256 MiB of them, and on trim, the pool asks malloc to
+/// return its free pages (glibc's malloc_trim). Thread-safe: the octree builder's threads grow
+/// their buffers concurrently.
 class HostPool {
  public:
   HostPool() = default;
@@ -62,7 +65,8 @@ class HostPool {
   };
 
   static void* system_allocate(std::size_t class_size);
-  static void system_release(void* pointer, std::size_t class_size) noexcept;
+  /// Gives a block back to the system. Called with mutex_ held.
+  void system_release(void* pointer, std::size_t class_size) noexcept;
   /// Returns the least recently freed cached blocks to the system until the pool is within its
   /// limit or holds none cached. Called with mutex_ held.
   void evict_past_limit() noexcept;
@@ -72,6 +76,8 @@ class HostPool {
   std::map<std::size_t, std::vector<Cached>> cached_;
   std::unordered_map<void*, std::size_t> larger_;  ///< blocks given out for a smaller class
   std::uint64_t fresh_ = 0, cached_bytes_ = 0, given_bytes_ = 0, releases_ = 0, limit_ = 0;
+  /// Bytes of small blocks given back since malloc last returned its free pages.
+  std::uint64_t heap_released_ = 0;
 };
 
 }  // namespace irgrid

@@ -193,6 +193,7 @@ std::int32_t build_initial_grid(Exec& exec, GridArrays<Exec>& grid, const BuildC
         // The complete octrees do not fit: the level-by-level build finds the last level that
         // does, as the CUDA build would, from the same pairs (sorted by top cell now, which
         // leaves every list it makes as it was).
+        exec.release_cached_memory();
       }
     }
   }
