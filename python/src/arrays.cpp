@@ -15,16 +15,26 @@
 namespace irgrid::python {
 
 namespace {
-// Rays traced per call: the SIMD walk's lanes run dry at the end of each call, so it is no
-// smaller than what the accelerators' own parallel loops hand one thread of a large batch.
-constexpr std::size_t kChunk = 16384;
+// Rays traced per call: the SIMD walk's lanes run dry at the end of each call, and the call's
+// own parallel loop cuts it into pieces of its grain. 65536 took 5% less time than 16384 per
+// cast_rays of 1M random rays on Sponza (Intel Xeon VM, 2 threads), and as long as 262144.
+constexpr std::size_t kChunk = 65536;
+
+/// Rays [first, first + count) of the rows into out[0, count). A loop of its own over plain
+/// pointers: written into a thread_local vector, each ray cost a call and a TLS lookup (5% of
+/// cast_rays on 1M random rays).
+void convert_rows(const float* rows, std::size_t first, std::size_t count, RayBounds tmin,
+                  RayBounds tmax, Ray* out) {
+  for (std::size_t i = 0; i < count; ++i)
+    out[i] = ray_of_row(rows, first + i, tmin, tmax);
+}
+
 }  // namespace
 
 RawArray<Ray> rays_from_rows(const float* rows, std::size_t n, RayBounds tmin, RayBounds tmax) {
   auto rays = uninitialized_array<Ray>(n);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& range) {
-    for (std::size_t i = range.begin(); i != range.end(); ++i)
-      rays[i] = ray_of_row(rows, i, tmin, tmax);
+    convert_rows(rows, range.begin(), range.size(), tmin, tmax, rays.get() + range.begin());
   });
   return rays;
 }
@@ -52,8 +62,7 @@ void trace_rows(const Accelerator& accelerator, const float* rows, std::size_t n
     }
     for (std::size_t first = range.begin(); first < range.end(); first += kChunk) {
       const std::size_t count = std::min(kChunk, range.end() - first);
-      for (std::size_t i = 0; i < count; ++i)
-        rays[i] = ray_of_row(rows, first + i, tmin, tmax);
+      convert_rows(rows, first, count, tmin, tmax, rays.data());
       // Isolated: while its own parallel_for waits, this thread must not take up another range
       // of the outer loop, which would reuse the buffers.
       tbb::this_task_arena::isolate([&] {

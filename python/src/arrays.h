@@ -29,8 +29,8 @@ inline Ray ray_of_row(const float* rows, std::size_t i, RayBounds tmin, RayBound
 
 /// Traces n rows of rays and hands the hits of rays [first, first + hits.size()) to
 /// `consume(first, hits)`, from several threads at once for disjoint ranges. On the CPU each
-/// thread converts and traces 16K rays at a time through buffers of its own (768 KiB, about
-/// what the accelerators' parallel loops give one thread of a large batch): no batch-sized
+/// thread converts and traces 64K rays at a time through buffers of its own (3 MiB; smaller
+/// calls cost the walk more, arrays.cpp): no batch-sized
 /// ray or hit array is written and read again, with its page faults. On the CUDA backend the
 /// batch goes to the device whole.
 void trace_rows(const Accelerator& accelerator, const float* rows, std::size_t n, RayBounds tmin,
