@@ -7,7 +7,7 @@ cd "$(dirname "$0")/.."
 venv=${IRGRID_PYTHON_VENV:-build/venv}
 [ -x "$venv/bin/python" ] || python3 -m venv "$venv"
 "$venv/bin/python" -m pip install -q --upgrade pip
-"$venv/bin/python" -m pip install -q numpy pytest hypothesis "dask[array]" distributed trimesh rtree
+"$venv/bin/python" -m pip install -q numpy pytest hypothesis "dask[array,distributed]" trimesh rtree
 "$venv/bin/python" -m pip install -q . --config-settings=cmake.define.IRGRID_ENABLE_CUDA=OFF
 "$venv/bin/python" -c "import irgrid; print('irgrid', irgrid.version(), 'backends:', irgrid.backends())"
 "$venv/bin/python" -m pytest -q python/tests
