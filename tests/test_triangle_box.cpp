@@ -557,6 +557,37 @@ TEST(TriangleBox, OctantsMatchTheExactTest) {
   }
 }
 
+// The host's vector test of 8 octants against the loop the device runs: the same bits for the
+// same inputs, NaN and infinities included (a GPU build's octrees must equal the CPU's).
+TEST(TriangleBox, VectorOctantTestEqualsThePortableLoop) {
+  using triangle_box_detail::separated_octants;
+  using triangle_box_detail::separated_octants_portable;
+  Generator g(31);
+  const float specials[] = {0.f, -0.f, INFINITY, -INFINITY, NAN, 1e-40f, 3e38f};
+  const auto value = [&] {
+    if (g.chance(0.05)) return specials[g.below(7)];
+    return float(g.sign() * g.log_uniform(1e-3, 1e3));
+  };
+  int differing = 0, separated_any = 0;
+  for (int i = 0; i < 200000; ++i) {
+    float shift[3][2], extent[3][2];
+    for (int k = 0; k < 3; ++k)
+      for (int side = 0; side < 2; ++side) {
+        shift[k][side] = value();
+        extent[k][side] = std::fabs(value());
+      }
+    const float a = value(), b = value(), tolerance = std::fabs(value()) * 1e-3f;
+    const float lowest = std::fmin(a, b), highest = std::fmax(a, b);
+    const std::uint32_t vector = separated_octants(shift, extent, lowest, highest, tolerance);
+    const std::uint32_t loop =
+        separated_octants_portable(shift, extent, lowest, highest, tolerance);
+    differing += vector != loop;
+    separated_any += loop != 0;
+  }
+  EXPECT_EQ(differing, 0);
+  EXPECT_GT(separated_any, 1000);  // the cases separate octants, not only keep them
+}
+
 TEST(TriangleBox, OctantsAgreeWithTheSingleBoxTest) {
   // Every octant of every generic case (all on the exact test's lattice), against the exact
   // verdict and against triangle_overlaps_box on that octant.
