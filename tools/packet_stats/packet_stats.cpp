@@ -1,7 +1,8 @@
 // irgrid-packet-stats: walks the camera rays of a scene's views one by one (traverse_grid's
 // walk) and counts, per block of pixels, the cells and references its rays visit against the
 // distinct cells of the block and their references: what a packet that visits each of its cells
-// once would do (docs/benchmarks.md, camera rays as packets).
+// once would do (docs/benchmarks.md, camera rays as packets). Per ray it also counts the distinct
+// triangles among its references: the tests a mailbox would leave.
 #include <cstdio>
 #include <exception>
 #include <string>
@@ -25,7 +26,8 @@ using namespace irgrid;
 
 /// Per-block totals over an image.
 struct BlockCounts {
-  double blocks = 0, ray_cells = 0, ray_refs = 0, block_cells = 0, block_refs = 0;
+  double blocks = 0, ray_cells = 0, ray_refs = 0, ray_triangles = 0, block_cells = 0,
+         block_refs = 0;
 };
 
 /// Calls visit(cell index, cell) for each cell the walk of `ray` visits, in order.
@@ -48,19 +50,24 @@ void walk_cells(const GridView& grid, const Ray& ray, Visit visit) {
 BlockCounts count_blocks(const GridView& grid, const std::vector<Ray>& rays, int width, int height,
                          int block_w, int block_h) {
   BlockCounts c;
-  std::unordered_set<std::uint32_t> seen;
+  std::unordered_set<std::uint32_t> seen, triangles;
   for (int by = 0; by < height; by += block_h)
     for (int bx = 0; bx < width; bx += block_w) {
       seen.clear();
       ++c.blocks;
       for (int y = by; y < by + block_h && y < height; ++y)
-        for (int x = bx; x < bx + block_w && x < width; ++x)
+        for (int x = bx; x < bx + block_w && x < width; ++x) {
+          triangles.clear();
           walk_cells(grid, rays[std::size_t(y) * std::size_t(width) + std::size_t(x)],
                      [&](std::uint32_t index, const Cell& cell) {
                        const double refs = cell.end - cell.begin;
                        c.ray_cells += 1, c.ray_refs += refs;
+                       for (std::uint32_t r = cell.begin; r < cell.end; ++r)
+                         triangles.insert(grid.refs[r]);
                        if (seen.insert(index).second) c.block_cells += 1, c.block_refs += refs;
                      });
+          c.ray_triangles += double(triangles.size());
+        }
     }
   return c;
 }
@@ -93,19 +100,21 @@ int main(int argc, char** argv) {
     const GridView grid = accelerator->grid_view();
     const std::vector<Camera> views = scene_views(scene, views_file);
     fmt::print(
-        "{}: {} x {} camera rays per view; per ray: cells and references visited; per block:"
-        " distinct cells, their references, and the references its rays visit in all\n",
+        "{}: {} x {} camera rays per view; per ray: cells and references visited, and the"
+        " distinct triangles among them; per block: distinct cells, their references, and the"
+        " references its rays visit in all\n",
         scene_spec, width, height);
-    fmt::print("{:>4} {:>6} {:>10} {:>9} {:>12} {:>11} {:>13}\n", "view", "block", "cells/ray",
-               "refs/ray", "block cells", "block refs", "rays' refs");
+    fmt::print("{:>4} {:>6} {:>10} {:>9} {:>14} {:>12} {:>11} {:>13}\n", "view", "block",
+               "cells/ray", "refs/ray", "triangles/ray", "block cells", "block refs", "rays' refs");
     for (std::size_t v = 0; v < views.size(); ++v) {
       const std::vector<Ray> rays = primary_rays(views[v], width, height);
       for (const auto& [bw, bh] : sizes) {
         const BlockCounts c = count_blocks(grid, rays, width, height, bw, bh);
         const double n = double(rays.size());
-        fmt::print("{:>4} {:>6} {:>10.2f} {:>9.2f} {:>12.1f} {:>11.1f} {:>13.1f}\n", v,
+        fmt::print("{:>4} {:>6} {:>10.2f} {:>9.2f} {:>14.2f} {:>12.1f} {:>11.1f} {:>13.1f}\n", v,
                    fmt::format("{}x{}", bw, bh), c.ray_cells / n, c.ray_refs / n,
-                   c.block_cells / c.blocks, c.block_refs / c.blocks, c.ray_refs / c.blocks);
+                   c.ray_triangles / n, c.block_cells / c.blocks, c.block_refs / c.blocks,
+                   c.ray_refs / c.blocks);
       }
     }
   } catch (const std::exception& e) {
