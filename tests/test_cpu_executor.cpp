@@ -9,8 +9,10 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
 #include <limits>
 #include <numeric>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <utility>
@@ -358,17 +360,61 @@ TEST(CpuExecutorBuffers, LargeBuffersAreHugePageAlignedAndMetered) {
 namespace irgrid {
 namespace {
 
-TEST(HostPool, ClassesRoundUpByAtMostAQuarter) {
+TEST(HostPool, ClassesRoundUpByAtMostAQuarterOrToWholeHugePages) {
   EXPECT_EQ(HostPool::class_bytes(1), 256u);
   EXPECT_EQ(HostPool::class_bytes(256), 256u);
   EXPECT_EQ(HostPool::class_bytes(257), 320u);  // 5 x 64
-  for (std::size_t bytes : {std::size_t(1000), std::size_t(4097), std::size_t(123457),
-                            std::size_t(3) << 20, (std::size_t(1) << 33) + 1}) {
+  EXPECT_EQ(HostPool::class_bytes(kHugePageBytes), kHugePageBytes);
+  EXPECT_EQ(HostPool::class_bytes(kHugePageBytes + 1), 2 * kHugePageBytes);
+  EXPECT_EQ(HostPool::class_bytes(5 * kHugePageBytes / 2), 3 * kHugePageBytes);
+  for (std::size_t bytes :
+       {std::size_t(1000), std::size_t(4097), std::size_t(123457), std::size_t(1) << 20,
+        std::size_t(3) << 20, std::size_t(11) << 20, (std::size_t(1) << 33) + 1}) {
     const std::size_t rounded = HostPool::class_bytes(bytes);
     EXPECT_GE(rounded, bytes);
-    EXPECT_LE(rounded, bytes + bytes / 4) << bytes;
+    EXPECT_LE(rounded, std::max(bytes + bytes / 4, bytes + kHugePageBytes - 1)) << bytes;
+    if (bytes > kHugePageBytes) EXPECT_EQ(rounded % kHugePageBytes, 0u) << bytes;
     EXPECT_EQ(HostPool::class_bytes(rounded), rounded) << bytes;
   }
+}
+
+/// Bytes of `[p, p + bytes)` the kernel backs with transparent huge pages (/proc/self/smaps).
+std::size_t huge_page_bytes_in(const void* p, std::size_t bytes) {
+  std::ifstream smaps("/proc/self/smaps");
+  const auto at = reinterpret_cast<std::uintptr_t>(p);
+  std::string line;
+  bool inside = false;
+  std::size_t total = 0;
+  while (std::getline(smaps, line)) {
+    std::uintptr_t begin = 0, end = 0;
+    char dash = 0;
+    std::istringstream range(line);
+    if (range >> std::hex >> begin >> dash >> end && dash == '-') {
+      inside = begin < at + bytes && at < end;
+    } else if (inside && line.rfind("AnonHugePages:", 0) == 0) {
+      total += std::stoull(line.substr(14)) * 1024;
+    }
+  }
+  return total;
+}
+
+TEST(HostPool, ABlockMovedOntoHugePagesKeepsItsContents) {
+  HostPool pool;
+  const std::size_t bytes = 2 * kHugePageBytes + 12345;  // a class of three huge pages
+  auto* block = static_cast<std::uint32_t*>(pool.allocate(bytes));
+  const std::size_t words = bytes / 4;
+  for (std::size_t i = 0; i < words; ++i)
+    block[i] = std::uint32_t(i * 2654435761u);
+  const bool moved = pool.move_onto_huge_pages(block, bytes);
+  for (std::size_t i = 0; i < words; ++i)
+    ASSERT_EQ(block[i], std::uint32_t(i * 2654435761u)) << i;
+  // Where the kernel moved it (Linux 6.1 and later, huge pages not off), every page is huge.
+  if (moved) EXPECT_GE(huge_page_bytes_in(block, bytes), 3 * kHugePageBytes);
+  EXPECT_FALSE(pool.move_onto_huge_pages(nullptr, bytes));
+  void* small = pool.allocate(1000);
+  EXPECT_FALSE(pool.move_onto_huge_pages(small, 1000));  // a malloc block: left alone
+  pool.release(small, 1000);
+  pool.release(block, bytes);
 }
 
 TEST(HostPool, ReleasedBlocksServeTheNextRequestsOfTheirClass) {

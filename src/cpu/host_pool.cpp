@@ -1,6 +1,7 @@
 // The CPU build's memory arena (host_pool.h).
 #include "cpu/host_pool.h"
 
+#include <algorithm>
 #include <bit>
 #include <new>
 
@@ -38,16 +39,16 @@ void return_heap_pages() noexcept {
 
 std::size_t HostPool::class_bytes(std::size_t bytes) noexcept {
   if (bytes <= kMinClassBytes) return kMinClassBytes;
-  // Keep the top three bits: classes 4, 5, 6 and 7 times a power of two.
+  // Keep the top three bits: classes 4, 5, 6 and 7 times a power of two, and whole huge pages
+  // from there up (move_onto_huge_pages covers a block to its end).
   const int step_bits = int(std::bit_width(bytes - 1)) - 3;
-  const std::size_t step = std::size_t(1) << step_bits;
+  std::size_t step = std::size_t(1) << step_bits;
+  if (bytes > kHugePageBytes) step = std::max(step, kHugePageBytes);
   return (bytes + step - 1) & ~(step - 1);
 }
 
 void* HostPool::system_allocate(std::size_t class_size) {
-  void* pointer = ::operator new(class_size, std::align_val_t(alignment_for(class_size)));
-  if (class_size >= kHugePageBytes) advise_huge_pages(pointer, class_size);
-  return pointer;
+  return ::operator new(class_size, std::align_val_t(alignment_for(class_size)));
 }
 
 void HostPool::system_release(void* pointer, std::size_t class_size) noexcept {
@@ -103,6 +104,16 @@ void HostPool::release(void* pointer, std::size_t bytes) noexcept {
   } catch (...) {  // no room to file it: give it back instead
     system_release(pointer, size);
   }
+}
+
+bool HostPool::move_onto_huge_pages(void* pointer, std::size_t bytes) noexcept {
+  std::size_t size = class_bytes(bytes);
+  if (!pointer || size < kHugePageBytes) return false;  // malloc's: not aligned to huge pages
+  {
+    const std::lock_guard lock(mutex_);
+    if (const auto found = larger_.find(pointer); found != larger_.end()) size = found->second;
+  }
+  return collapse_into_huge_pages(pointer, size);
 }
 
 void HostPool::trim() noexcept {

@@ -48,6 +48,27 @@ inline void advise_huge_pages(void* p, std::size_t bytes) noexcept {
 #endif
 }
 
+/// Moves the whole huge pages inside [p, p + bytes) onto huge pages now (Linux's MADV_COLLAPSE,
+/// 6.1 and later: the kernel copies them into fresh huge pages) and marks them for huge pages,
+/// so that older kernels' khugepaged collapses them later. For arrays written on 4 KiB pages
+/// and then read at random for a long time: the finished grid. Returns whether the kernel
+/// collapsed them (false where unsupported, where transparent huge pages are off, and when
+/// the range holds no whole huge page).
+inline bool collapse_into_huge_pages(void* p, std::size_t bytes) noexcept {
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+  constexpr int kCollapse = 25;  // MADV_COLLAPSE, which Debian 12's headers do not name yet
+  const auto at = reinterpret_cast<std::uintptr_t>(p), huge = std::uintptr_t(kHugePageBytes);
+  const std::uintptr_t first = (at + huge - 1) & ~(huge - 1), last = (at + bytes) & ~(huge - 1);
+  if (last <= first) return false;
+  void* const start = reinterpret_cast<void*>(first);
+  madvise(start, last - first, MADV_HUGEPAGE);
+  return madvise(start, last - first, kCollapse) == 0;
+#else
+  (void)p, (void)bytes;
+  return false;
+#endif
+}
+
 /// The allocators' construct: default-initialises instead of value-initialising, so a buffer of
 /// trivial elements is not zero-filled (the executor's contract leaves contents unspecified, and
 /// every phase writes before it reads), which saves a pass over memory per allocation.
