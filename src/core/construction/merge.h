@@ -93,10 +93,11 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
                                                " references; at most 2^30 - 1 each");
   auto merged_cells = exec.template allocate<Cell>(num_cells);
   auto merged_refs = exec.template allocate<std::uint32_t>(num_refs);
-  auto remap_buffer = exec.template allocate<std::uint32_t>(n);
   auto merged_quiet = exec.template allocate<std::uint32_t>(num_cells);
   Cell* out_cells = merged_cells.data();
-  std::uint32_t *out_refs = merged_refs.data(), *remap = remap_buffer.data();
+  // Each old cell's new id, written over new_id: a surviving cell's is its own, and an absorbed
+  // cell's entry, which only its absorber writes, is read by no one else before the remap.
+  std::uint32_t *out_refs = merged_refs.data(), *remap = new_id;
   const std::uint32_t* old_quiet = quiet.data();
   std::uint32_t* new_quiet = merged_quiet.data();
   // One thread per surviving cell writes its box and list (the paper copies unmerged lists
@@ -106,7 +107,6 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
     if (leaves_the_array(parity, absorbed_by, i)) return;
     const Cell a = cells[i];
     const std::uint32_t id = new_id[i], begin = new_begin[i];
-    remap[i] = id;
     std::uint32_t count = a.end - a.begin;
     Cell merged = a;
     if (next[i] != kNoCell) {
@@ -234,6 +234,7 @@ void merge_sweep(Exec& exec, GridArrays<Exec>& grid, int axis, float cost_ratio,
                      union_size.data(), quiet.data(), track);
   if (proposals == 0) return;
   const auto parity = chain_parity(exec, prev.data(), n);
+  prev = {};  // back to the pool before the merges ask for their arrays of n
   if (double(proposals) < double(in_place_below) * double(n)) {
     const std::uint32_t merged = apply_merges_in_place(exec, grid, next.data(), union_size.data(),
                                                        parity.data(), quiet.data(), forward, track);

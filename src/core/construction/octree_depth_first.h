@@ -37,13 +37,22 @@ inline bool depth_first_applies(const GridInfo& info) {
   return morton_bits(info) <= 21;
 }
 
+/// A leaf as a chunk holds it, in half a Cell: its size follows from the level of the entry
+/// naming it, and its last reference from the next cell's first (or its top cell's count), so
+/// the chunks, which the copy holds beside the grid's arrays, take 16 bytes per cell, not 32.
+struct ChunkCell {
+  std::int32_t lo[3];   ///< 12 B lower voxel
+  std::uint32_t begin;  ///<  4 B first reference, counted from its top cell's first
+};
+static_assert(sizeof(ChunkCell) == 16);
+
 /// What one chunk of consecutive top cells (x-fastest order) built, with local indices: an inner
 /// entry at level L names a slot of the chunk's level L + 1, a leaf entry a cell counted from its
-/// own top cell's first, and a cell's range counts from its top cell's first reference.
+/// own top cell's first, and a cell's first reference counts from its top cell's first.
 template <typename Exec>
 struct ChunkOctrees {
   std::vector<typename Exec::template Buffer<Entry>> levels;  ///< entries of each octree level
-  typename Exec::template Buffer<Cell> cells;
+  typename Exec::template Buffer<ChunkCell> cells;
   typename Exec::template Buffer<std::uint32_t> refs;
   /// Per top cell of the chunk, in order, the entries it added to each level (levels_per_top).
   std::vector<std::uint32_t> entries_per_level;
@@ -143,10 +152,7 @@ class TopCellBuilder {
     if (!split) {
       masks_top_ = mask_begin;
       entries[slot] = Entry::leaf(std::uint32_t(chunk_.cells.size()) - first_cell_);
-      const std::int32_t size = std::int32_t(1) << (info_.shift - level);
-      const auto begin = std::uint32_t(chunk_.refs.size()) - first_ref_;
-      chunk_.cells.push_back(
-          {{lo.x, lo.y, lo.z}, begin, {lo.x + size, lo.y + size, lo.z + size}, begin + count});
+      chunk_.cells.push_back({{lo.x, lo.y, lo.z}, std::uint32_t(chunk_.refs.size()) - first_ref_});
       chunk_.refs.insert(chunk_.refs.end(), lists_.data() + list_begin,
                          lists_.data() + list_begin + count);
       pending_refs_ += count;
@@ -271,7 +277,7 @@ bool pilot_predicts_budget_exceeded(Exec& exec, const GridInfo& info,
     ChunkOctrees<Exec> chunk;
     chunk.levels.assign(levels, exec.template allocate<Entry>(0));
     chunk.levels[0].resize(1);
-    chunk.cells = exec.template allocate<Cell>(0);
+    chunk.cells = exec.template allocate<ChunkCell>(0);
     chunk.refs = exec.template allocate<std::uint32_t>(0);
     RunningTotals totals;
     totals.budget = std::min(kPilotSlack * std::uint64_t(double(budget) * count / pairs),
@@ -339,7 +345,7 @@ TopCellOctrees<Exec> build_top_cell_octrees(Exec& exec, const GridInfo& info,
     // Grown from the executor's buffers, so that a rebuild takes them from its pool.
     chunk.levels.assign(levels, exec.template allocate<Entry>(0));
     chunk.levels[0].resize(top_end - top_begin);
-    chunk.cells = exec.template allocate<Cell>(0);
+    chunk.cells = exec.template allocate<ChunkCell>(0);
     chunk.refs = exec.template allocate<std::uint32_t>(0);
     chunk.entries_per_level.resize(std::size_t(top_end - top_begin) * levels);
     depth_first_detail::TopCellBuilder<Exec> builder(info, triangles, rule, chunk, totals);
@@ -348,10 +354,11 @@ TopCellOctrees<Exec> build_top_cell_octrees(Exec& exec, const GridInfo& info,
       for (std::uint32_t l = 0; l < levels; ++l)
         level_sizes[l] = std::uint32_t(chunk.levels[l].size());
       const auto cells_before = std::uint32_t(chunk.cells.size());
+      const auto refs_before = std::uint32_t(chunk.refs.size());
       builder.build(top_cell_corner(info, t), rule.depths[t], tri + first[t], refs_per_top[t],
                     t - top_begin);
       cells_per_top[t] = std::uint32_t(chunk.cells.size()) - cells_before;
-      refs_out[t] = chunk.cells.back().end;
+      refs_out[t] = std::uint32_t(chunk.refs.size()) - refs_before;
       std::uint32_t* added = chunk.entries_per_level.data() + std::size_t(t - top_begin) * levels;
       for (std::uint32_t l = 0; l < levels; ++l)
         added[l] = std::uint32_t(chunk.levels[l].size()) - level_sizes[l];
@@ -434,26 +441,32 @@ void assemble_top_cell_octrees(Exec& exec, TopCellOctrees<Exec>& octrees, GridAr
     for (std::uint32_t t = top_begin; t < top_end; ++t) {
       const std::uint32_t* added =
           chunk.entries_per_level.data() + std::size_t(t - top_begin) * levels;
+      // The top cell's cells and references, each contiguous in the chunk and in the grid; a
+      // cell is written where its leaf entry gives its level, hence its size.
+      Cell* to = cells + d_cell_base[t];
+      const ChunkCell* from = chunk.cells.data() + cell_at;
+      const std::uint32_t ref_base_t = d_ref_base[t], top_cells = cells_per_top[t];
       for (std::uint32_t l = 0; l < levels; ++l) {
         const std::uint64_t out = level_offsets[l] + chunk_base[l];
         const std::uint64_t children =
             l + 1 < levels ? level_offsets[l + 1] + chunk_base[l + 1] : 0;
+        const std::int32_t size = std::int32_t(1) << (info.shift - std::int32_t(l));
         for (std::uint32_t k = at[l]; k < at[l] + added[l]; ++k) {
           const Entry e = chunk.levels[l][k];
-          entries[out + k] = e.log_dim() == 0
-                                 ? Entry::leaf(d_cell_base[t] + e.index())
-                                 : Entry::inner(1, std::uint32_t(children + e.index()));
+          if (e.log_dim() != 0) {
+            entries[out + k] = Entry::inner(1, std::uint32_t(children + e.index()));
+            continue;
+          }
+          const std::uint32_t c = e.index();
+          entries[out + k] = Entry::leaf(d_cell_base[t] + c);
+          const ChunkCell& leaf = from[c];
+          const std::uint32_t end = c + 1 < top_cells ? from[c + 1].begin : refs_per_top[t];
+          to[c] = {{leaf.lo[0], leaf.lo[1], leaf.lo[2]},
+                   ref_base_t + leaf.begin,
+                   {leaf.lo[0] + size, leaf.lo[1] + size, leaf.lo[2] + size},
+                   ref_base_t + end};
         }
         at[l] += added[l];
-      }
-      // The top cell's cells and references, each contiguous in the chunk and in the grid.
-      Cell* to = cells + d_cell_base[t];
-      const std::uint32_t ref_base_t = d_ref_base[t];
-      for (std::uint32_t k = 0; k < cells_per_top[t]; ++k) {
-        Cell cell = chunk.cells[cell_at + k];
-        cell.begin += ref_base_t;
-        cell.end += ref_base_t;
-        to[k] = cell;
       }
       std::copy(chunk.refs.begin() + ref_at, chunk.refs.begin() + (ref_at + refs_per_top[t]),
                 refs + ref_base_t);
