@@ -91,33 +91,45 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
     throw Error(ErrorCode::limit_exceeded, "merging: " + std::to_string(num_cells) + " cells, " +
                                                std::to_string(num_refs) +
                                                " references; at most 2^30 - 1 each");
-  auto merged_cells = exec.template allocate<Cell>(num_cells);
+  // The lists first, then the boxes, so that the old references go back before the new cells
+  // are made: the first sweeps make the build's peak (the paper's §3.2 writes both in one pass).
+  // One thread per surviving cell (the paper copies unmerged lists warp-cooperatively; a CUDA
+  // executor may want that for load balance).
   auto merged_refs = exec.template allocate<std::uint32_t>(num_refs);
+  std::uint32_t* out_refs = merged_refs.data();
+  exec.for_each("merge write lists", n, [=] IRGRID_HD(std::size_t i) {
+    // Written by its predecessor, or absorbed in place earlier.
+    if (leaves_the_array(parity, absorbed_by, i)) return;
+    const Cell a = cells[i];
+    std::uint32_t* out = out_refs + new_begin[i];
+    if (next[i] != kNoCell) {
+      const Cell b = cells[next[i]];
+      write_sorted_union(refs + a.begin, a.end - a.begin, refs + b.begin, b.end - b.begin, out);
+    } else {
+      copy_list(refs + a.begin, a.end - a.begin, out);
+    }
+  });
+  grid.refs = std::move(merged_refs);
+  auto merged_cells = exec.template allocate<Cell>(num_cells);
   auto merged_quiet = exec.template allocate<std::uint32_t>(num_cells);
   Cell* out_cells = merged_cells.data();
   // Each old cell's new id, written over new_id: a surviving cell's is its own, and an absorbed
   // cell's entry, which only its absorber writes, is read by no one else before the remap.
-  std::uint32_t *out_refs = merged_refs.data(), *remap = new_id;
+  std::uint32_t* remap = new_id;
   const std::uint32_t* old_quiet = quiet.data();
   std::uint32_t* new_quiet = merged_quiet.data();
-  // One thread per surviving cell writes its box and list (the paper copies unmerged lists
-  // warp-cooperatively; a CUDA executor may want that for load balance).
-  exec.for_each("merge write", n, [=] IRGRID_HD(std::size_t i) {
-    // Written by its predecessor, or absorbed in place earlier.
+  exec.for_each("merge write cells", n, [=] IRGRID_HD(std::size_t i) {
     if (leaves_the_array(parity, absorbed_by, i)) return;
-    const Cell a = cells[i];
+    Cell merged = cells[i];
     const std::uint32_t id = new_id[i], begin = new_begin[i];
-    std::uint32_t count = a.end - a.begin;
-    Cell merged = a;
+    // A union's size is exact (proposes_merge): the lists above filled [begin, begin + count).
+    std::uint32_t count = merged.end - merged.begin;
     if (next[i] != kNoCell) {
       const Cell b = cells[next[i]];
       remap[next[i]] = id;  // the absorbed cell's only writer: it has one predecessor
-      count = write_sorted_union(refs + a.begin, a.end - a.begin, refs + b.begin, b.end - b.begin,
-                                 out_refs + begin);
+      count = union_size[i];
       for (int axis = 0; axis < 3; ++axis)
         merged.hi[axis] = b.hi[axis];
-    } else {
-      copy_list(refs + a.begin, count, out_refs + begin);
     }
     merged.begin = begin;
     merged.end = begin + count;
@@ -139,7 +151,6 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
   quiet = std::move(merged_quiet);
   forward = {};
   grid.cells = std::move(merged_cells);
-  grid.refs = std::move(merged_refs);
   grid.info.num_cells = num_cells;
   grid.info.num_refs = num_refs;
 }
