@@ -206,6 +206,51 @@ TEST(GpuGrid, TraceDeviceOnAStreamEqualsTrace) {
 #endif
 }
 
+/// trace over the caller's arrays (RayArrays, HitArrays) on CUDA: the hits of the CPU's, and
+/// the normals from the triangles copied back from the device, after a rebuild too.
+TEST(GpuGrid, CallerArraysWithNormalsTraceAsOnTheCpu) {
+  IRGRID_SKIP_WITHOUT_GPU();
+#if IRGRID_HAS_CUDA
+  const Scene scene = load_scene("builtin:teapot-stadium:4000");
+  RayConfig config;
+  config.width = 96, config.height = 64;
+  const auto rays =
+      generate_rays(scene, scene_views(scene).front(), RayKind::primary, config, nullptr);
+  std::vector<float> rows;
+  for (const Ray& r : rays) {
+    rows.insert(rows.end(), r.org, r.org + 3);
+    rows.insert(rows.end(), r.dir, r.dir + 3);
+  }
+  RayArrays in;
+  in.count = rays.size();
+  in.origins = rows.data(), in.origin_stride = 6;
+  in.directions = rows.data() + 3, in.direction_stride = 6;
+  AcceleratorOptions options;
+  options.backend = Backend::cuda;
+  for (const Structure structure : {Structure::irregular, Structure::brute}) {
+    const auto gpu = make_accelerator(scene, structure, options);
+    const auto cpu = make_accelerator(scene, structure);
+    for (int round = 0; round < 2; ++round) {
+      std::vector<float> t[2], normals[2];
+      std::vector<std::uint32_t> prim[2];
+      const Accelerator* both[2] = {gpu.get(), cpu.get()};
+      for (int k = 0; k < 2; ++k) {
+        t[k].assign(rays.size(), -1.f), normals[k].assign(3 * rays.size(), -1.f);
+        prim[k].assign(rays.size(), 0);
+        HitArrays out;
+        out.t = t[k].data(), out.prim = prim[k].data(), out.normal = normals[k].data();
+        both[k]->trace(in, out, Query::closest);
+      }
+      EXPECT_EQ(prim[0], prim[1]) << to_string(structure) << " round " << round;
+      EXPECT_EQ(std::memcmp(t[0].data(), t[1].data(), t[0].size() * 4), 0) << to_string(structure);
+      EXPECT_EQ(std::memcmp(normals[0].data(), normals[1].data(), normals[0].size() * 4), 0)
+          << to_string(structure) << " round " << round;
+      gpu->rebuild(scene.mesh());  // the host copy of the triangles is made again
+    }
+  }
+#endif
+}
+
 TEST(GpuGrid, RebuildsReuseThePoolAndEqualFreshBuilds) {
   IRGRID_SKIP_WITHOUT_GPU();
   const Scene scene = load_scene("builtin:teapot-stadium:4000");

@@ -152,16 +152,15 @@ std::vector<Ray> extreme_direction_rays(const Scene& scene) {
 /// A way of walking a chunk of rays on the CPU (cpu/walk_policy.h, interleaved_walk.h,
 /// simd_walk.h); each must give every ray the hit and the work of its own walk.
 template <Query kQuery, typename CellT>
-using ChunkWalk = void (*)(const GridView&, std::span<const Ray>, std::span<Hit>,
-                           std::span<RayWork>);
+using ChunkWalk = void (*)(const GridView&, const RayFields&, const HitFields&, std::span<RayWork>);
 
 template <Query kQuery, typename CellT, typename Walk = ChunkWalk<kQuery, CellT>>
 void expect_walk_equals_single(Walk walk, const GridView& view, const std::vector<Ray>& rays,
                                const std::string& what) {
   std::vector<Hit> single(rays.size()), walked(rays.size());
   std::vector<RayWork> single_work(rays.size()), walked_work(rays.size());
-  trace_one_by_one<kQuery, CellT>(view, rays, single, single_work);
-  walk(view, rays, walked, walked_work);
+  trace_one_by_one<kQuery, CellT>(view, ray_fields(rays), hit_fields(single), single_work);
+  walk(view, ray_fields(rays), hit_fields(walked), walked_work);
   EXPECT_EQ(std::memcmp(single.data(), walked.data(), rays.size() * sizeof(Hit)), 0) << what;
   std::size_t same_work = 0;
   for (std::size_t i = 0; i < rays.size(); ++i)
@@ -170,7 +169,7 @@ void expect_walk_equals_single(Walk walk, const GridView& view, const std::vecto
   EXPECT_EQ(same_work, rays.size()) << what;
   // Without counters: the same hits.
   std::fill(walked.begin(), walked.end(), Hit{0, -1.f, -1.f, -1.f});
-  walk(view, rays, walked, {});
+  walk(view, ray_fields(rays), hit_fields(walked), {});
   EXPECT_EQ(std::memcmp(single.data(), walked.data(), rays.size() * sizeof(Hit)), 0) << what;
 }
 
@@ -215,7 +214,7 @@ TEST(GridTraversal, InterleavedWalksEqualSingleWalks) {
 /// The SIMD walk of `kIsa` with its lanes given rays as `lane_rays` says, as a ChunkWalk.
 template <SimdIsa kIsa, Query kQuery, typename CellT>
 auto simd_walk(SimdRays lane_rays) {
-  return [lane_rays](const GridView& view, std::span<const Ray> rays, std::span<Hit> hits,
+  return [lane_rays](const GridView& view, const RayFields& rays, const HitFields& hits,
                      std::span<RayWork> work) {
     trace_simd_lanes<kIsa, kQuery, CellT>(view, rays, hits, work, lane_rays);
   };
@@ -263,9 +262,9 @@ TEST(WalkPolicy, CameraRaysAreCoherentRandomRaysAreNot) {
   const auto grid = testing::build_test_grid(scene, BuildConfig{});
   const std::vector<Ray> camera = primary_rays(auto_camera(scene.bounds()), 256, 4);
   const std::vector<Ray> random = random_rays(scene.bounds(), 256, 3);
-  EXPECT_TRUE(rays_are_coherent(grid.info, std::span(camera).subspan(0, 256)));
-  EXPECT_FALSE(rays_are_coherent(grid.info, random));
-  EXPECT_FALSE(rays_are_coherent(grid.info, std::span(camera).subspan(0, 1)));
+  EXPECT_TRUE(rays_are_coherent(grid.info, ray_fields(std::span(camera).subspan(0, 256))));
+  EXPECT_FALSE(rays_are_coherent(grid.info, ray_fields(random)));
+  EXPECT_FALSE(rays_are_coherent(grid.info, ray_fields(std::span(camera).subspan(0, 1))));
   // Both ways give the same hits and work, so the choice only changes the speed.
   const GridView view = make_grid_view(grid, nullptr);
   expect_interleaved_equals_single<Query::closest>(view, camera, "camera rays");

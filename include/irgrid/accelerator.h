@@ -183,6 +183,14 @@ class Accelerator {
   /// equal hits.size(). Returns when the hits are written.
   virtual void trace(std::span<const Ray> rays, std::span<Hit> hits, Query query) const = 0;
 
+  /// Traces ray i of `rays` into element i of each array of `hits` that is set, for every i: the
+  /// caller's own layouts, read and written in place (host memory on every backend). The hits
+  /// are those of trace for the same rays, and `hits.normal` gets the unit geometric normal of
+  /// the triangle hit. The grids on the CPU walk the arrays themselves; the other structures
+  /// and backends convert them a batch at a time around trace. Throws Error{invalid_argument}
+  /// for a null origins or directions with rays to trace, or a ray stride of 2^26 floats or more.
+  virtual void trace(const RayArrays& rays, const HitArrays& hits, Query query) const;
+
   /// Whether trace_counted works (the grids); brute force and Embree do not count.
   virtual bool counts_work() const { return false; }
   /// Like trace, and also counts the work per ray into work[i]. Throws Error{invalid_argument}
@@ -213,6 +221,12 @@ class Accelerator {
 
   /// Figures of the last build or rebuild.
   virtual const BuildStats& build_stats() const = 0;
+
+ protected:
+  /// The mesh's triangles by index in host memory, for the normals that trace(RayArrays,
+  /// HitArrays) writes when the structure converts the arrays around trace. Valid until the
+  /// next rebuild; may be made on first use (a copy from device memory on CUDA).
+  virtual std::span<const TriangleVertices> host_triangles() const = 0;
 };
 
 /// Counts, for every ray, the distinct distances t in [tmin, tmax] at which it meets a triangle

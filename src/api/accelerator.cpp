@@ -2,10 +2,17 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <tbb/blocked_range.h>
+#include <tbb/task_arena.h>
+
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <utility>
+#include <vector>
 
+#include "cpu/parallel.h"
+#include "cpu/ray_fields.h"
 #include "cpu/structures.h"
 #include "cpu/walk_policy.h"
 #include "irgrid/error.h"
@@ -140,6 +147,59 @@ void check_trace_spans(std::span<const Ray> rays, std::span<Hit> hits) {
   if (rays.size() != hits.size())
     throw Error(ErrorCode::invalid_argument,
                 fmt::format("trace: {} rays but room for {} hits", rays.size(), hits.size()));
+}
+
+void check_ray_arrays(const RayArrays& rays) {
+  if (rays.count == 0) return;
+  if (!rays.origins || !rays.directions)
+    throw Error(ErrorCode::invalid_argument,
+                fmt::format("trace: RayArrays of {} rays without {}", rays.count,
+                            rays.origins ? "directions" : "origins"));
+  constexpr std::size_t kLargestStride = (std::size_t(1) << 26) - 1;
+  for (const auto& [name, stride] :
+       {std::pair{"origin_stride", rays.origin_stride},
+        std::pair{"direction_stride", rays.direction_stride},
+        std::pair{"tmin_stride", rays.tmin_stride}, std::pair{"tmax_stride", rays.tmax_stride}})
+    if (stride > kLargestStride)
+      throw Error(
+          ErrorCode::invalid_argument,
+          fmt::format("trace: RayArrays::{} {} exceeds {} floats", name, stride, kLargestStride));
+}
+
+void Accelerator::trace(const RayArrays& rays, const HitArrays& hits, Query query) const {
+  check_ray_arrays(rays);
+  if (rays.count == 0) return;
+  const float zero = 0, infinity = INFINITY;
+  const RayFields in = ray_fields(rays, &zero, &infinity);
+  const HitFields out = hit_fields(hits, hits.normal ? host_triangles().data() : nullptr);
+  const auto trace_converted = [&](std::size_t first, std::size_t count, Ray* ray_buffer,
+                                   Hit* hit_buffer) {
+    for (std::size_t i = 0; i < count; ++i)
+      ray_buffer[i] = in[first + i];
+    trace(std::span<const Ray>(ray_buffer, count), std::span<Hit>(hit_buffer, count), query);
+    for (std::size_t i = 0; i < count; ++i)
+      out.write(first + i, hit_buffer[i]);
+  };
+  if (backend() != Backend::cpu) {  // one batch: each call is a round trip to the device
+    std::vector<Ray> ray_buffer(rays.count);
+    std::vector<Hit> hit_buffer(rays.count);
+    trace_converted(0, rays.count, ray_buffer.data(), hit_buffer.data());
+    return;
+  }
+  // Pieces of kPiece rays per thread, through buffers of its own: no batch-sized copy of the
+  // rays and hits is written and read again. trace's own loop runs inside, isolated, so that
+  // while it waits this thread takes up no other piece (which would reuse the buffers).
+  constexpr std::size_t kPiece = 65536;
+  irgrid::parallel_for(
+      tbb::blocked_range<std::size_t>(0, rays.count, kPiece), [&](const auto& range) {
+        std::vector<Ray> ray_buffer(std::min(kPiece, range.size()));
+        std::vector<Hit> hit_buffer(ray_buffer.size());
+        for (std::size_t first = range.begin(); first < range.end(); first += kPiece) {
+          const std::size_t count = std::min(kPiece, range.end() - first);
+          tbb::this_task_arena::isolate(
+              [&] { trace_converted(first, count, ray_buffer.data(), hit_buffer.data()); });
+        }
+      });
 }
 
 void Accelerator::trace_counted(std::span<const Ray>, std::span<Hit>, std::span<RayWork>,

@@ -42,6 +42,8 @@ class CwbvhCpu final : public Accelerator {
   }
 
  private:
+  std::span<const TriangleVertices> host_triangles() const override { return bvh_.triangles; }
+
   template <Query kQuery>
   static Hit trace_one(const CwbvhView& view, const Ray& ray, RayWork* work) {
     if (!work) return traverse_cwbvh<kQuery>(view, ray);

@@ -7,12 +7,15 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <span>
+#include <vector>
 
 #include <embree3/rtcore.h>
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
 #include <xmmintrin.h>
 
+#include "api/lazy_host_triangles.h"
 #include "cpu/parallel.h"
 #include "cpu/structures.h"
 #include "irgrid/error.h"
@@ -63,6 +66,7 @@ class EmbreeCpu final : public Accelerator {
 
   void rebuild(const TriangleMesh& mesh) override {
     check_rebuild(mesh, triangle_count_);
+    host_triangles_.reset();
     if (triangle_count_ > 0) {
       // Embree's buffers keep their size when the mesh keeps its vertex count.
       const std::size_t vertex_count = mesh.vertex_count;
@@ -121,6 +125,25 @@ class EmbreeCpu final : public Accelerator {
   }
 
  private:
+  /// From Embree's own vertex and index buffers (the mesh is not kept).
+  std::span<const TriangleVertices> host_triangles() const override {
+    return host_triangles_.get([&](std::vector<TriangleVertices>& out) {
+      out.resize(triangle_count_);
+      if (triangle_count_ == 0) return;
+      RTCGeometry geometry = rtcGetGeometry(scene_, geometry_id_);
+      const auto* vertices =
+          static_cast<const float*>(rtcGetGeometryBufferData(geometry, RTC_BUFFER_TYPE_VERTEX, 0));
+      const auto* indices = static_cast<const std::uint32_t*>(
+          rtcGetGeometryBufferData(geometry, RTC_BUFFER_TYPE_INDEX, 0));
+      for (std::size_t i = 0; i < triangle_count_; ++i) {
+        const std::uint32_t* tri = indices + 3 * i;
+        out[i] = {Vec3<float>::from(vertices + 3 * std::size_t(tri[0])),
+                  Vec3<float>::from(vertices + 3 * std::size_t(tri[1])),
+                  Vec3<float>::from(vertices + 3 * std::size_t(tri[2]))};
+      }
+    });
+  }
+
   /// Commits the scene (its build) and records the time and memory.
   void commit(const TriangleMesh&) {
     const auto start = std::chrono::steady_clock::now();
@@ -270,6 +293,7 @@ class EmbreeCpu final : public Accelerator {
   BuildStats info_;
   bool packets_;
   std::size_t triangle_count_ = 0, vertex_count_ = 0;
+  LazyHostTriangles host_triangles_;  // for trace(RayArrays, HitArrays) with normals
   unsigned geometry_id_ = RTC_INVALID_GEOMETRY_ID;
 };
 

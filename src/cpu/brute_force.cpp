@@ -33,6 +33,8 @@ class BruteForceCpu final : public Accelerator {
   }
 
  private:
+  std::span<const TriangleVertices> host_triangles() const override { return triangles_; }
+
   void build(const TriangleMesh& mesh) {
     const auto start = std::chrono::steady_clock::now();
     gather_triangles(mesh, triangles_);

@@ -1,6 +1,7 @@
 // The irregular grid (and the uniform and two-level grids) built and traversed on the CPU.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <string>
 #include <utility>
 #include <vector>
@@ -11,6 +12,7 @@
 #include "core/construction/compress_cells.h"
 #include "cpu/cpu_executor.h"
 #include "cpu/parallel.h"
+#include "cpu/ray_fields.h"
 #include "cpu/structures.h"
 #include "cpu/walk_policy.h"
 #include "irgrid/error.h"
@@ -89,29 +91,46 @@ class GridCpu final : public GridAcceleratorBase {
 
   void trace_grid(std::span<const Ray> rays, std::span<Hit> hits, std::span<RayWork> work,
                   Query query) const override {
-    if (!compact_cells_.empty())
-      trace_layout<CompactCell>(rays, hits, work, query);
-    else
-      trace_layout<Cell>(rays, hits, work, query);
+    trace_fields(ray_fields(rays), hit_fields(hits), work, query);
   }
 
-  template <typename CellT>
-  void trace_layout(std::span<const Ray> rays, std::span<Hit> hits, std::span<RayWork> work,
+  /// The rays walk the caller's arrays in place: no records are made and copied.
+  void trace(const RayArrays& rays, const HitArrays& hits, Query query) const override {
+    check_ray_arrays(rays);
+    if (rays.count == 0) return;
+    const float zero = 0, infinity = INFINITY;
+    const HitFields out = hit_fields(hits, grid_.triangles.data());
+    if (empty_scene_) {
+      for (std::size_t i = 0; i < rays.count; ++i)
+        out.write(i, kNoHit, 0, 0, 0);
+      return;
+    }
+    trace_fields(ray_fields(rays, &zero, &infinity), out, {}, query);
+  }
+
+  std::span<const TriangleVertices> host_triangles() const override {
+    return {grid_.triangles.data(), grid_.triangles.size()};
+  }
+
+  void trace_fields(const RayFields& rays, const HitFields& hits, std::span<RayWork> work,
                     Query query) const {
+    const bool compact = !compact_cells_.empty();
     if (query == Query::closest)
-      trace_query<Query::closest, CellT>(rays, hits, work);
+      compact ? trace_query<Query::closest, CompactCell>(rays, hits, work)
+              : trace_query<Query::closest, Cell>(rays, hits, work);
     else
-      trace_query<Query::any, CellT>(rays, hits, work);
+      compact ? trace_query<Query::any, CompactCell>(rays, hits, work)
+              : trace_query<Query::any, Cell>(rays, hits, work);
   }
 
   template <Query kQuery, typename CellT>
-  void trace_query(std::span<const Ray> rays, std::span<Hit> hits, std::span<RayWork> work) const {
+  void trace_query(const RayFields& rays, const HitFields& hits, std::span<RayWork> work) const {
     const GridView view = this->view();
     irgrid::parallel_for(
         tbb::blocked_range<std::size_t>(0, rays.size(), 1024), [&](const auto& range) {
           const std::size_t first = range.begin(), count = range.size();
           trace_chunk<kQuery, CellT>(view, info_.memory_bytes, options_.cpu_walk,
-                                     rays.subspan(first, count), hits.subspan(first, count),
+                                     rays.subrange(first, count), hits.subrange(first),
                                      work.empty() ? work : work.subspan(first, count));
         });
   }

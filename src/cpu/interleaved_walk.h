@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <span>
 
+#include "cpu/ray_fields.h"
 #include "irgrid/accelerator.h"
 #include "irgrid/kernel/grid_traverse.h"
 
@@ -23,10 +24,11 @@ namespace irgrid {
 /// of memory, few enough that the lanes' states stay in L1.
 inline constexpr int kWalkLanes = 8;
 
-/// Traces rays[i] into hits[i] (and the work of each into work[i] when work is not empty) with
-/// up to kWalkLanes walks interleaved. The same hits as traverse_grid<kQuery, CellT> per ray.
+/// Traces ray i of `rays` into hit i of `hits` (and the work of each into work[i] when work is
+/// not empty) with up to kWalkLanes walks interleaved. The same hits as
+/// traverse_grid<kQuery, CellT> per ray.
 template <Query kQuery, typename CellT>
-void trace_interleaved(const GridView& grid, std::span<const Ray> rays, std::span<Hit> hits,
+void trace_interleaved(const GridView& grid, const RayFields& rays, const HitFields& hits,
                        std::span<RayWork> work) {
   struct Lane {
     GridWalk walk;
@@ -56,7 +58,7 @@ void trace_interleaved(const GridView& grid, std::span<const Ray> rays, std::spa
         enter_cell(lane);
         return true;
       }
-      hits[next] = Hit{};
+      hits.write(next, kNoHit, 0, 0, 0);
       if (counted) work[next] = {};
     }
     return false;
@@ -99,7 +101,7 @@ void trace_interleaved(const GridView& grid, std::span<const Ray> rays, std::spa
         ++l;
         continue;
       }
-      hits[lane.ray] = walk_result(lane.walk);
+      hits.write(lane.ray, walk_result(lane.walk));
       if (counted) work[lane.ray] = {lane.counters.cells, lane.counters.triangles};
       if (start(lane)) {
         ++l;  // its first cell is read in the next round

@@ -16,6 +16,7 @@
 
 #include <span>
 
+#include "cpu/ray_fields.h"
 #include "irgrid/accelerator.h"
 #include "irgrid/kernel/grid_traverse.h"
 
@@ -53,12 +54,12 @@ enum class SimdRays {
   packets,
 };
 
-/// Traces rays[i] into hits[i] (and the work of each into work[i] when work is not empty) with
-/// walks in the SIMD lanes of `kIsa`, given to the lanes as `lane_rays` says. The same hits and
-/// work as traverse_grid<kQuery, CellT> per ray, bit for bit, either way. Requires cpu_has(kIsa)
-/// and simd_walk_fits(grid.info).
+/// Traces ray i of `rays` into hit i of `hits` (and the work of each into work[i] when work is
+/// not empty) with walks in the SIMD lanes of `kIsa`, given to the lanes as `lane_rays` says. The
+/// same hits and work as traverse_grid<kQuery, CellT> per ray, bit for bit, either way. Requires
+/// cpu_has(kIsa) and simd_walk_fits(grid.info).
 template <SimdIsa kIsa, Query kQuery, typename CellT>
-void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span<Hit> hits,
+void trace_simd_lanes(const GridView& grid, const RayFields& rays, const HitFields& hits,
                       std::span<RayWork> work, SimdRays lane_rays);
 
 }  // namespace irgrid

@@ -17,6 +17,7 @@
 #include <cstdint>
 #include <span>
 
+#include "cpu/ray_fields.h"
 #include "cpu/simd_walk.h"
 #include "irgrid/accelerator.h"
 #include "irgrid/kernel/grid_traverse.h"
@@ -30,7 +31,7 @@
 namespace irgrid {
 
 template <SimdIsa kIsa, Query kQuery, typename CellT>
-void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span<Hit> hits,
+void trace_simd_lanes(const GridView& grid, const RayFields& rays, const HitFields& hits,
                       std::span<RayWork> work, SimdRays lane_rays) {
   static_assert(kIsa == SimdIsa::avx512);
   simd::LaneWalk<simd::Avx512Lanes, kSimdWalkRaysInFlight / simd::Avx512Lanes::kLanes>::
@@ -38,17 +39,16 @@ void trace_simd_lanes(const GridView& grid, std::span<const Ray> rays, std::span
 }
 
 template void trace_simd_lanes<SimdIsa::avx512, Query::closest, Cell>(const GridView&,
-                                                                      std::span<const Ray>,
-                                                                      std::span<Hit>,
+                                                                      const RayFields&,
+                                                                      const HitFields&,
                                                                       std::span<RayWork>, SimdRays);
-template void trace_simd_lanes<SimdIsa::avx512, Query::any, Cell>(const GridView&,
-                                                                  std::span<const Ray>,
-                                                                  std::span<Hit>,
+template void trace_simd_lanes<SimdIsa::avx512, Query::any, Cell>(const GridView&, const RayFields&,
+                                                                  const HitFields&,
                                                                   std::span<RayWork>, SimdRays);
 template void trace_simd_lanes<SimdIsa::avx512, Query::closest, CompactCell>(
-    const GridView&, std::span<const Ray>, std::span<Hit>, std::span<RayWork>, SimdRays);
+    const GridView&, const RayFields&, const HitFields&, std::span<RayWork>, SimdRays);
 template void trace_simd_lanes<SimdIsa::avx512, Query::any, CompactCell>(
-    const GridView&, std::span<const Ray>, std::span<Hit>, std::span<RayWork>, SimdRays);
+    const GridView&, const RayFields&, const HitFields&, std::span<RayWork>, SimdRays);
 
 }  // namespace irgrid
 

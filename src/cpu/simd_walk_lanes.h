@@ -89,14 +89,23 @@ struct LaneWalk {
     return V::truncate(V::min(V::max(p, V::splat(0.f)), V::splat(float(info.virtual_dims[a] - 1))));
   }
 
-  /// begin_walk, lane-wise, for the lanes of `starting`: lane l begins rays[l] (read with
-  /// gathers). Writes the walks into s and returns the lanes whose ray enters the grid (where
-  /// begin_walk returns true); the other lanes of s hold no walk.
-  static M begin_walks(const GridInfo& info, const Ray* rays, Lanes& s, M starting) {
-    static_assert(sizeof(Ray) == 8 * sizeof(float), "rays are read as 8 floats each");
-    const float* base = &rays[0].org[0];
-    const I field = V::template shift_left<3>(V::lane_index());
-    const auto read = [&](int f) { return V::gather(base, V::add(field, V::splat(f)), starting); };
+  /// Per field of RayFields: lane l's offset from the field of the group's first ray.
+  struct FieldOffsets {
+    I lane[RayFields::kFields];
+    explicit FieldOffsets(const RayFields& rays) {
+      for (int f = 0; f < RayFields::kFields; ++f)
+        lane[f] = V::mul(V::lane_index(), V::splat(std::int32_t(rays.stride[f])));
+    }
+  };
+
+  /// begin_walk, lane-wise, for the lanes of `starting`: lane l begins ray `first` + l of
+  /// `rays` (read with gathers at `offsets`). Writes the walks into s and returns the lanes whose
+  /// ray enters the grid (where begin_walk returns true); the other lanes of s hold no walk.
+  static M begin_walks(const GridInfo& info, const RayFields& rays, const FieldOffsets& offsets,
+                       std::size_t first, Lanes& s, M starting) {
+    const auto read = [&](int f) {
+      return V::gather(rays.base[f] + first * rays.stride[f], offsets.lane[f], starting);
+    };
     const F org[3] = {read(0), read(1), read(2)}, tmin = read(3);
     const F dir[3] = {read(4), read(5), read(6)}, tmax = read(7);
     const F zero = V::splat(0.f), one = V::splat(1.f), infinity = V::splat(INFINITY);
@@ -619,15 +628,45 @@ struct LaneWalk {
   /// How many batches of L rays ahead the walk requests the rays it will begin.
   static constexpr std::size_t kRaysAhead = 4;
 
+  /// The memory the rays are read from: each field that a set of rays reads, once (Ray records
+  /// keep all eight fields in one stream; numpy rows have one for the origins and directions),
+  /// found once per call: looking for them before each prefetch cost 8% of random rays' walk.
+  struct RayStreams {
+    const float* base[4] = {};
+    std::uint32_t stride[4] = {};
+    int count = 0;
+    explicit RayStreams(const RayFields& rays) {
+      for (const int f : {0, 4, 3, 7}) {  // origins, directions, tmin, tmax
+        if (rays.stride[f] == 0) continue;
+        bool covered = false;  // by an earlier field of the same records
+        for (int j = 0; j < count; ++j)
+          covered |= stride[j] == rays.stride[f] && rays.base[f] >= base[j] &&
+                     rays.base[f] < base[j] + stride[j];
+        if (!covered) base[count] = rays.base[f], stride[count++] = rays.stride[f];
+      }
+    }
+    /// Asks for the cache lines of rays [first, first + n).
+    void prefetch(std::size_t first, std::size_t n) const {
+      for (int k = 0; k < count; ++k) {
+        const char* begin = reinterpret_cast<const char*>(base[k] + first * stride[k]);
+        const std::size_t bytes = n * stride[k] * sizeof(float);
+        for (std::size_t byte = 0; byte < bytes; byte += 64)
+          __builtin_prefetch(begin + byte);
+      }
+    }
+  };
+
   /// trace_simd_lanes of cpu/simd_walk.h.
   template <Query kQuery, typename CellT>
-  static void trace(const GridView& grid, std::span<const Ray> rays, std::span<Hit> hits,
+  static void trace(const GridView& grid, const RayFields& rays, const HitFields& hits,
                     std::span<RayWork> work, SimdRays lane_rays) {
     const bool packets = lane_rays == SimdRays::packets;
     const CellT* cells = cell_array<CellT>(grid);
     const TriangleVertices* triangles = grid.triangles;
     const bool counted = !work.empty();
     Group groups[G];
+    const FieldOffsets offsets(rays);
+    const RayStreams streams(rays);
     Lanes staged{};                  // walks begun ahead, L rays at a time
     std::size_t staged_first = 0;    // the ray of slot 0 of `staged`; slot k holds ray + k
     std::uint32_t staged_ready = 0;  // slots of `staged` whose ray enters the grid, not yet taken
@@ -643,19 +682,15 @@ struct LaneWalk {
           const std::uint32_t starting = (1u << count) - 1;
           // The rays a few batches ahead: their lane-wise reads would otherwise wait on memory.
           const std::size_t ahead = next + kRaysAhead * L;
-          if (ahead < rays.size()) {
-            const char* first = reinterpret_cast<const char*>(rays.data() + ahead);
-            const std::size_t bytes =
-                (rays.size() - ahead < L ? rays.size() - ahead : L) * sizeof(Ray);
-            for (std::size_t byte = 0; byte < bytes; byte += 64)
-              __builtin_prefetch(first + byte);
-          }
+          if (ahead < rays.size())
+            streams.prefetch(ahead, rays.size() - ahead < L ? rays.size() - ahead : L);
+          hits.prefetch(next, count);
           staged_ready =
-              V::bits(begin_walks(grid.info, rays.data() + next, staged, V::lanes(starting)));
+              V::bits(begin_walks(grid.info, rays, offsets, next, staged, V::lanes(starting)));
           staged_first = next;
           for (std::uint32_t slot = 0; slot < count; ++slot) {
             if (staged_ready >> slot & 1) continue;
-            hits[next + slot] = Hit{};
+            hits.write(next + slot, kNoHit, 0, 0, 0);
             if (counted) work[next + slot] = {};
           }
           next += count;
@@ -860,7 +895,7 @@ struct LaneWalk {
           const int l = __builtin_ctz(bits);
           const auto prim = std::uint32_t(s.best_prim[l]);
           const std::uint32_t ray = group.ray_of[l];
-          hits[ray] = prim == kNoHit ? Hit{} : Hit{prim, s.best_t[l], s.best_u[l], s.best_v[l]};
+          hits.write(ray, prim, s.best_t[l], s.best_u[l], s.best_v[l]);
           if (counted)
             work[ray] = {std::uint32_t(group.cells_visited[l]),
                          std::uint32_t(group.triangles_tested[l])};

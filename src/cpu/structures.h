@@ -61,6 +61,10 @@ inline void check_rebuild(const TriangleMesh& mesh, std::size_t built) {
 /// Throws Error{invalid_argument} unless rays and hits have the same length.
 void check_trace_spans(std::span<const Ray> rays, std::span<Hit> hits);
 
+/// Throws Error{invalid_argument} for RayArrays that trace(RayArrays, HitArrays) cannot read:
+/// rays without origins or directions, a stride of 2^26 floats or more.
+void check_ray_arrays(const RayArrays& rays);
+
 /// Milliseconds since `start`.
 template <typename Clock>
 double elapsed_ms(typename Clock::time_point start) {

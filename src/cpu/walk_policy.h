@@ -26,6 +26,7 @@
 #include <span>
 
 #include "cpu/interleaved_walk.h"
+#include "cpu/ray_fields.h"
 #include "cpu/simd_walk.h"
 #include "irgrid/accelerator.h"
 #include "irgrid/kernel/grid_traverse.h"
@@ -40,7 +41,7 @@ inline constexpr std::size_t kCoherentWalkMaxGridBytes = std::size_t(64) << 20;
 /// Whether most consecutive rays of `rays` start within a voxel of each other and point the
 /// same way to within about 0.8 degrees, as camera rays do. Looks at up to 64 pairs spread over
 /// the chunk.
-inline bool rays_are_coherent(const GridInfo& info, std::span<const Ray> rays) {
+inline bool rays_are_coherent(const GridInfo& info, const RayFields& rays) {
   constexpr float kCosine = 0.9999f;
   constexpr std::size_t kSamples = 64;
   if (rays.size() < 2) return false;
@@ -48,8 +49,8 @@ inline bool rays_are_coherent(const GridInfo& info, std::span<const Ray> rays) {
   const std::size_t stride = pairs > kSamples ? pairs / kSamples : 1;
   std::size_t sampled = 0, coherent = 0;
   for (std::size_t i = 1; i < rays.size(); i += stride, ++sampled) {
-    const Ray& a = rays[i - 1];
-    const Ray& b = rays[i];
+    const Ray a = rays[i - 1];
+    const Ray b = rays[i];
     float dot = 0, aa = 0, bb = 0;
     bool close = true;
     for (int k = 0; k < 3; ++k) {
@@ -63,8 +64,7 @@ inline bool rays_are_coherent(const GridInfo& info, std::span<const Ray> rays) {
 
 /// Whether a chunk walks as coherent rays: `rays` are (rays_are_coherent) and the grid's arrays,
 /// `grid_bytes`, take at most kCoherentWalkMaxGridBytes.
-inline bool walks_as_coherent(const GridInfo& info, std::size_t grid_bytes,
-                              std::span<const Ray> rays) {
+inline bool walks_as_coherent(const GridInfo& info, std::size_t grid_bytes, const RayFields& rays) {
   return grid_bytes <= kCoherentWalkMaxGridBytes && rays_are_coherent(info, rays);
 }
 
@@ -82,17 +82,17 @@ inline std::optional<SimdIsa> simd_isa_of(CpuWalk walk) {
   return std::nullopt;
 }
 
-/// Traces rays[i] into hits[i] one ray at a time (work[i] too when work is not empty).
+/// Traces ray i into hit i one ray at a time (work[i] too when work is not empty).
 template <Query kQuery, typename CellT>
-void trace_one_by_one(const GridView& grid, std::span<const Ray> rays, std::span<Hit> hits,
+void trace_one_by_one(const GridView& grid, const RayFields& rays, const HitFields& hits,
                       std::span<RayWork> work) {
   for (std::size_t i = 0; i < rays.size(); ++i) {
     if (work.empty()) {
-      hits[i] = traverse_grid<kQuery, CellT>(grid, rays[i]);
+      hits.write(i, traverse_grid<kQuery, CellT>(grid, rays[i]));
       continue;
     }
     TraversalCounters counters;
-    hits[i] = traverse_grid<kQuery, CellT>(grid, rays[i], &counters);
+    hits.write(i, traverse_grid<kQuery, CellT>(grid, rays[i], &counters));
     work[i] = {counters.cells, counters.triangles};
   }
 }
@@ -100,8 +100,8 @@ void trace_one_by_one(const GridView& grid, std::span<const Ray> rays, std::span
 /// Traces a chunk of rays the way that suits it (see the top of this file); `grid_bytes` is the
 /// size of the grid's arrays. The hits and the work do not depend on the choice.
 template <Query kQuery, typename CellT>
-void trace_chunk(const GridView& grid, std::size_t grid_bytes, CpuWalk walk,
-                 std::span<const Ray> rays, std::span<Hit> hits, std::span<RayWork> work) {
+void trace_chunk(const GridView& grid, std::size_t grid_bytes, CpuWalk walk, const RayFields& rays,
+                 const HitFields& hits, std::span<RayWork> work) {
   const auto isa = simd_walk_fits(grid.info) ? simd_isa_of(walk) : std::nullopt;
   if (isa) {
     const SimdRays lane_rays =

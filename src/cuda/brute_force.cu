@@ -2,6 +2,7 @@
 // (irgrid/kernel/watertight.h).
 #include <chrono>
 
+#include "api/lazy_host_triangles.h"
 #include "cpu/structures.h"
 #include "cuda/device_buffer.cuh"
 #include "irgrid/kernel/watertight.h"
@@ -63,7 +64,12 @@ class BruteForceCuda final : public Accelerator {
   }
 
  private:
+  std::span<const TriangleVertices> host_triangles() const override {
+    return host_triangles_.get([&](auto& out) { triangles_.download_all(out); });
+  }
+
   void upload(const TriangleMesh& mesh) {
+    host_triangles_.reset();
     const auto start = std::chrono::steady_clock::now();
     std::vector<TriangleVertices> host;
     gather_triangles(mesh, host);
@@ -82,6 +88,7 @@ class BruteForceCuda final : public Accelerator {
   }
 
   cuda::DeviceBuffer<TriangleVertices> triangles_;
+  LazyHostTriangles host_triangles_;  // for trace(RayArrays, HitArrays) with normals
   BuildStats info_;
 };
 

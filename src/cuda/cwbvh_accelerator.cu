@@ -4,6 +4,7 @@
 #include <chrono>
 #include <mutex>
 
+#include "api/lazy_host_triangles.h"
 #include "baselines/cwbvh_build.h"
 #include "cpu/structures.h"
 #include "cuda/device_buffer.cuh"
@@ -74,7 +75,12 @@ class CwbvhCuda final : public Accelerator {
   }
 
  private:
+  std::span<const TriangleVertices> host_triangles() const override {
+    return host_triangles_.get([&](auto& out) { triangles_.download_all(out); });
+  }
+
   void build(const TriangleMesh& mesh) {
+    host_triangles_.reset();
     nodes_ = {}, refs_ = {}, triangles_ = {};  // misses until the build succeeds
     const auto start = std::chrono::steady_clock::now();
     const HostCwbvh bvh = build_cwbvh_timed(mesh, options_, info_);
@@ -142,6 +148,7 @@ class CwbvhCuda final : public Accelerator {
   cuda::DeviceBuffer<CwbvhNode> nodes_;
   cuda::DeviceBuffer<std::uint32_t> refs_;
   cuda::DeviceBuffer<TriangleVertices> triangles_;
+  LazyHostTriangles host_triangles_;  // for trace(RayArrays, HitArrays) with normals
   mutable std::mutex mutex_;
   mutable cuda::DeviceBuffer<Ray> rays_;
   mutable cuda::DeviceBuffer<Hit> hits_;

@@ -3,6 +3,7 @@
 
 #include <cstddef>
 #include <utility>
+#include <vector>
 
 #include "cuda/check.cuh"
 #include "cuda/device_pool.cuh"
@@ -73,6 +74,11 @@ class DeviceBuffer {
   }
   void download(T* host, std::size_t count) const {
     IRGRID_CUDA_CHECK(cudaMemcpy(host, data_, count * sizeof(T), cudaMemcpyDeviceToHost));
+  }
+  /// Copies every element to the host, into `host` (resized).
+  void download_all(std::vector<T>& host) const {
+    host.resize(count_);
+    if (count_ > 0) download(host.data(), count_);
   }
 
  private:

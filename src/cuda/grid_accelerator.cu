@@ -4,6 +4,7 @@
 #include <mutex>
 
 #include "api/grid_accelerator_base.h"
+#include "api/lazy_host_triangles.h"
 #include "core/construction/compress_cells.h"
 #include "cpu/structures.h"
 #include "cuda/cuda_executor.cuh"
@@ -58,8 +59,8 @@ CudaExecutor::Buffer<TriangleVertices> upload_triangles(const CudaExecutor& exec
 
 template <typename T>
 std::vector<T> to_host(const cuda::DeviceBuffer<T>& buffer) {
-  std::vector<T> host(buffer.size());
-  if (!host.empty()) buffer.download(host.data(), host.size());
+  std::vector<T> host;
+  buffer.download_all(host);
   return host;
 }
 
@@ -90,7 +91,12 @@ class GridCuda final : public GridAcceleratorBase {
   }
 
  private:
+  std::span<const TriangleVertices> host_triangles() const override {
+    return host_triangles_.get([&](auto& out) { grid_.triangles.download_all(out); });
+  }
+
   void build(const TriangleMesh& mesh) override {
+    host_triangles_.reset();
     const auto start = std::chrono::steady_clock::now();
     const std::uint64_t fresh_before = exec_.pool().fresh_allocations();
     // The last grid's blocks go back to the pool first, for this build to take them again.
@@ -172,6 +178,7 @@ class GridCuda final : public GridAcceleratorBase {
 
   CudaExecutor exec_;  // first: its memory pool must outlive every buffer below
   GridArrays<CudaExecutor> grid_;
+  LazyHostTriangles host_triangles_;  // for trace(RayArrays, HitArrays) with normals
   CudaExecutor::Buffer<CompactCell> compact_cells_;
   mutable std::mutex mutex_;
   mutable cuda::DeviceBuffer<Ray> rays_;

@@ -1,6 +1,7 @@
 // irgrid/kernel/triangle.h: triangles as the tracers store them, and their bounding boxes.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 
 #include "irgrid/kernel/platform.h"
@@ -13,6 +14,19 @@ struct TriangleVertices {
   Vec3<float> p0, p1, p2;  ///< 3 x 12 B
 };
 static_assert(sizeof(TriangleVertices) == 36 && alignof(TriangleVertices) == 4);
+
+/// The unit geometric normal (p1 - p0) x (p2 - p0), zero for a degenerate triangle. In double:
+/// the edges and products of float coordinates are exact there, so slivers and large coordinates
+/// keep their direction.
+IRGRID_HD inline Vec3<float> triangle_normal(const TriangleVertices& t) {
+  const double e1[3] = {double(t.p1.x) - t.p0.x, double(t.p1.y) - t.p0.y, double(t.p1.z) - t.p0.z};
+  const double e2[3] = {double(t.p2.x) - t.p0.x, double(t.p2.y) - t.p0.y, double(t.p2.z) - t.p0.z};
+  const double x = e1[1] * e2[2] - e1[2] * e2[1], y = e1[2] * e2[0] - e1[0] * e2[2],
+               z = e1[0] * e2[1] - e1[1] * e2[0];
+  const double length = sqrt(x * x + y * y + z * z);
+  const double scale = length > 0 ? 1 / length : 0;
+  return {float(x * scale), float(y * scale), float(z * scale)};
+}
 
 /// Axis-aligned box in world space.
 struct BoxF {

@@ -1,0 +1,116 @@
+// cpu/ray_fields.h: where the CPU walks read their rays and write their hits, field by field, so
+// that one walk serves Ray / Hit records and the caller's own arrays (RayArrays, HitArrays)
+// alike, with no copy in between.
+#pragma once
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+#include "irgrid/kernel/triangle.h"
+#include "irgrid/ray.h"
+
+namespace irgrid {
+
+/// The rays of a batch as eight float fields (origin xyz, tmin, direction xyz, tmax, the order of
+/// Ray), each read at base[f] + i * stride[f]: Ray records are eight fields of stride 8.
+struct RayFields {
+  static constexpr int kFields = 8;
+  const float* base[kFields];
+  std::uint32_t stride[kFields];  ///< floats; below 2^26, so that lane offsets fit 32 bits
+  std::size_t count;
+
+  /// Ray i, as a record.
+  Ray operator[](std::size_t i) const {
+    const auto at = [&](int f) { return base[f][i * stride[f]]; };
+    return {{at(0), at(1), at(2)}, at(3), {at(4), at(5), at(6)}, at(7)};
+  }
+  std::size_t size() const { return count; }
+  /// Rays [first, first + n).
+  RayFields subrange(std::size_t first, std::size_t n) const {
+    RayFields out = *this;
+    for (int f = 0; f < kFields; ++f)
+      out.base[f] += first * stride[f];
+    out.count = n;
+    return out;
+  }
+};
+
+/// The records of `rays`.
+RayFields ray_fields(std::span<const Ray> rays);
+/// The caller's arrays (already checked by check_ray_arrays); `zero` and `infinity` stand in for
+/// a null tmin and tmax and must outlive the result.
+RayFields ray_fields(const RayArrays& rays, const float* zero, const float* infinity);
+
+/// Where the hits of a batch go: Hit records, or as HitArrays (null: not written), strides in
+/// elements.
+struct HitFields {
+  /// Hit records (the fields below are null then): one 16-byte store per hit, not four.
+  Hit* records;
+  float* t;
+  std::uint32_t* prim;
+  float* u;
+  float* v;
+  float* normal;
+  std::size_t t_stride, prim_stride, u_stride, v_stride, normal_stride;
+  /// The triangles by index, for the normals (null when no normal is written).
+  const TriangleVertices* triangles;
+
+  /// Writes the hit of ray i: `prim` kNoHit for a miss, whatever t, u, v say.
+  void write(std::size_t i, std::uint32_t hit_prim, float hit_t, float hit_u, float hit_v) const {
+    const bool miss = hit_prim == kNoHit;
+    if (records) {
+      records[i] = miss ? Hit{} : Hit{hit_prim, hit_t, hit_u, hit_v};
+      return;
+    }
+    if (prim) prim[i * prim_stride] = hit_prim;
+    if (t) t[i * t_stride] = miss ? INFINITY : hit_t;
+    if (u) u[i * u_stride] = miss ? 0.f : hit_u;
+    if (v) v[i * v_stride] = miss ? 0.f : hit_v;
+    if (normal) write_normal(i, hit_prim);
+  }
+  void write(std::size_t i, const Hit& h) const { write(i, h.prim, h.t, h.u, h.v); }
+  /// The normal of triangle `hit_prim` (zero for kNoHit) into ray i's.
+  void write_normal(std::size_t i, std::uint32_t hit_prim) const {
+    const Vec3<float> n =
+        hit_prim == kNoHit ? Vec3<float>{0, 0, 0} : triangle_normal(triangles[hit_prim]);
+    float* out = normal + i * normal_stride;
+    out[0] = n.x, out[1] = n.y, out[2] = n.z;
+  }
+  /// Asks for the cache lines that the hits of rays [first, first + n) will be written to, to be
+  /// written: rays about to begin their walks (in flight, stores that miss fill the store
+  /// buffer and stall the walk).
+  void prefetch(std::size_t first, std::size_t n) const {
+    const auto lines = [&](const void* base, std::size_t stride, std::size_t bytes) {
+      if (!base) return;
+      const char* begin = static_cast<const char*>(base) + first * stride * bytes;
+      for (std::size_t byte = 0; byte < n * stride * bytes; byte += 64)
+        __builtin_prefetch(begin + byte, 1);
+    };
+    lines(records, 1, sizeof(Hit));
+    lines(t, t_stride, 4);
+    lines(prim, prim_stride, 4);
+    lines(u, u_stride, 4);
+    if (v != u + 1 || v_stride != u_stride) lines(v, v_stride, 4);
+    lines(normal, normal_stride, 4);
+  }
+  /// Hits [first, first + n) go to the fields' element first onwards.
+  HitFields subrange(std::size_t first) const {
+    HitFields out = *this;
+    if (records) out.records += first;
+    if (t) out.t += first * t_stride;
+    if (prim) out.prim += first * prim_stride;
+    if (u) out.u += first * u_stride;
+    if (v) out.v += first * v_stride;
+    if (normal) out.normal += first * normal_stride;
+    return out;
+  }
+};
+
+/// The records of `hits`.
+HitFields hit_fields(std::span<Hit> hits);
+/// The caller's arrays; `triangles` (by index) for the normals, when hits.normal is set.
+HitFields hit_fields(const HitArrays& hits, const TriangleVertices* triangles);
+
+}  // namespace irgrid
