@@ -27,16 +27,6 @@ inline Ray ray_of_row(const float* rows, std::size_t i, RayBounds tmin, RayBound
   return {{r[0], r[1], r[2]}, tmin[i], {r[3], r[4], r[5]}, tmax[i]};
 }
 
-/// Traces n rows of rays and hands the hits of rays [first, first + hits.size()) to
-/// `consume(first, hits)`, from several threads at once for disjoint ranges. On the CPU each
-/// thread converts and traces 64K rays at a time through buffers of its own (3 MiB; smaller
-/// calls cost the walk more, arrays.cpp): no batch-sized
-/// ray or hit array is written and read again, with its page faults. On the CUDA backend the
-/// batch goes to the device whole.
-void trace_rows(const Accelerator& accelerator, const float* rows, std::size_t n, RayBounds tmin,
-                RayBounds tmax, Query query,
-                const std::function<void(std::size_t first, std::span<const Hit> hits)>& consume);
-
 /// Storage for n rays or hits that the caller overwrites whole: not zeroed first. Ray and Hit
 /// are aggregates, so the allocation itself begins their lifetimes.
 struct RawDelete {
@@ -53,15 +43,10 @@ RawArray<T> uninitialized_array(std::size_t n) {
 /// All n rays of the rows (count_crossings takes a whole batch).
 RawArray<Ray> rays_from_rows(const float* rows, std::size_t n, RayBounds tmin, RayBounds tmax);
 
-/// The unit geometric normal (v1 - v0) x (v2 - v0) of each triangle, zero for a degenerate one,
-/// into `normals` (3 floats per triangle), from float32 xyz vertices and uint32 triangles.
+/// The unit geometric normal of each triangle (triangle_normal of irgrid/kernel/triangle.h: the
+/// normals trace writes) into `normals` (3 floats per triangle), from float32 xyz vertices and
+/// uint32 triangles.
 void triangle_normals(const float* vertices, const std::uint32_t* triangles,
                       std::size_t triangle_count, float* normals);
-
-/// Hits of rays [first, first + hits.size()) as Python returns them, into element `first` onwards
-/// of each array: t (inf on a miss), primitive id (kNoHit on a miss), u, v and the normal of the
-/// triangle hit from `triangle_normals` (zero on a miss).
-void split_hits(std::size_t first, std::span<const Hit> hits, const float* triangle_normals,
-                float* t, std::uint32_t* prim, float* uv, float* normals);
 
 }  // namespace irgrid::python

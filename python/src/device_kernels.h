@@ -62,9 +62,9 @@ class Scratch {
 void pack_rays(const float* rows, std::size_t n, const float* tmin, float tmin_value,
                const float* tmax, float tmax_value, Ray* out, Stream stream);
 
-/// The closest hits as Python returns them (split_hits in arrays.h, on the device): t (inf on a
-/// miss), primitive id, uv and the hit triangle's normal from `triangle_normals` (zero on a
-/// miss). Queued on `stream`.
+/// The closest hits as Python returns them (what the library's trace writes into HitArrays for
+/// host rays): t (inf on a miss), primitive id, uv and the hit triangle's normal from
+/// `triangle_normals` (zero on a miss). Queued on `stream`.
 void split_hits(const Hit* hits, std::size_t n, const float* triangle_normals, float* t,
                 std::uint32_t* prim, float* uv, float* normals, Stream stream);
 

@@ -1,5 +1,5 @@
-// python/src/hit_split.h: one hit as Python returns it, written once for the host loop
-// (arrays.cpp) and the device kernel (device_kernels.cu).
+// python/src/hit_split.h: one hit as Python returns it, for the device kernel of rays in GPU
+// arrays (device_kernels.cu); host rays get theirs from the library's trace into HitArrays.
 #pragma once
 
 #include <cmath>

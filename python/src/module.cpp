@@ -70,6 +70,18 @@ RayBounds bounds_of(const FloatRows& rows, const Floats& values, const char* wha
   return {values.data(), values.shape(0)};
 }
 
+/// Rows of (origin, direction) with their bounds, as the library reads them in place.
+RayArrays ray_arrays(const FloatRows& rows, const Floats& tmin, const Floats& tmax) {
+  const RayBounds lo = bounds_of(rows, tmin, "tmin"), hi = bounds_of(rows, tmax, "tmax");
+  RayArrays in;
+  in.count = rows.shape(0);
+  in.origins = rows.data(), in.origin_stride = 6;
+  in.directions = rows.data() + 3, in.direction_stride = 6;
+  in.tmin = lo.values, in.tmin_stride = lo.count == 1 ? 0 : 1;
+  in.tmax = hi.values, in.tmax_stride = hi.count == 1 ? 0 : 1;
+  return in;
+}
+
 /// One built structure over a mesh, with the mesh's arrays kept for normals and rebuilds.
 class PyAccelerator {
  public:
@@ -80,7 +92,6 @@ class PyAccelerator {
       throw Error(ErrorCode::invalid_argument, "triangles: expected 3 columns");
     vertices_.assign(vertices.data(), vertices.data() + vertices.size());
     triangles_.assign(triangles.data(), triangles.data() + triangles.size());
-    normals_.resize(triangles_.size());
     AcceleratorOptions options;
     options.backend = parse_backend(backend);
     options.grid = config;
@@ -95,36 +106,40 @@ class PyAccelerator {
   std::string backend() const { return to_string(accelerator_->backend()); }
   std::uint64_t memory_bytes() const { return accelerator_->build_stats().memory_bytes; }
 
+  /// The rows are read and the results written in place by the library's trace: no copy of
+  /// either is made (docs/benchmarks.md: the copies cost a tenth of the walk's speed).
   nb::tuple cast_rays(const FloatRows& rows, const Floats& tmin, const Floats& tmax) const {
-    const RayBounds lo = bounds_of(rows, tmin, "tmin"), hi = bounds_of(rows, tmax, "tmax");
-    const std::size_t n = rows.shape(0);
+    const RayArrays in = ray_arrays(rows, tmin, tmax);
+    const std::size_t n = in.count;
     auto t = new_array<float>({n});
     auto prim = new_array<std::uint32_t>({n});
     auto uv = new_array<float>({n, 2});
     auto normals = new_array<float>({n, 3});
+    HitArrays out;
+    out.t = t.data(), out.prim = prim.data();
+    out.u = uv.data(), out.u_stride = 2;
+    out.v = uv.data() + 1, out.v_stride = 2;
+    out.normal = normals.data();
     {
       nb::gil_scoped_release release;
-      trace_rows(*accelerator_, rows.data(), n, lo, hi, Query::closest,
-                 [&](std::size_t first, std::span<const Hit> hits) {
-                   split_hits(first, hits, normals_.data(), t.data(), prim.data(), uv.data(),
-                              normals.data());
-                 });
+      accelerator_->trace(in, out, Query::closest);
     }
     return nb::make_tuple(t, prim, uv, normals);
   }
 
   nb::ndarray<nb::numpy, bool> test_occlusions(const FloatRows& rows, const Floats& tmin,
                                                const Floats& tmax) const {
-    const RayBounds lo = bounds_of(rows, tmin, "tmin"), hi = bounds_of(rows, tmax, "tmax");
-    const std::size_t n = rows.shape(0);
+    const RayArrays in = ray_arrays(rows, tmin, tmax);
+    const std::size_t n = in.count;
     auto occluded = new_array<bool>({n});
     {
       nb::gil_scoped_release release;
-      trace_rows(*accelerator_, rows.data(), n, lo, hi, Query::any,
-                 [&](std::size_t first, std::span<const Hit> hits) {
-                   for (std::size_t k = 0; k < hits.size(); ++k)
-                     occluded.data()[first + k] = hits[k].hit();
-                 });
+      const auto prim = uninitialized_array<std::uint32_t>(n);
+      HitArrays out;
+      out.prim = prim.get();
+      accelerator_->trace(in, out, Query::any);
+      for (std::size_t i = 0; i < n; ++i)
+        occluded.data()[i] = prim[i] != kNoHit;
     }
     return occluded;
   }
@@ -218,14 +233,15 @@ class PyAccelerator {
             triangles_.size() / 3};
   }
 
-  /// The geometric normal of every triangle, for the hits' normals (also in device memory on
-  /// the CUDA backend, for rays from GPU arrays).
+  /// On the CUDA backend, the geometric normal of every triangle in device memory, for the
+  /// hits' normals of rays from GPU arrays (the library writes those of host rays).
   void update_normals() {
-    triangle_normals(vertices_.data(), triangles_.data(), triangles_.size() / 3, normals_.data());
     if (device_ < 0) return;
-    const std::size_t bytes = normals_.size() * sizeof(float);
+    std::vector<float> normals(triangles_.size());
+    triangle_normals(vertices_.data(), triangles_.data(), triangles_.size() / 3, normals.data());
+    const std::size_t bytes = normals.size() * sizeof(float);
     if (!device_normals_) device_normals_ = gpu::allocate(bytes, "triangle normals");
-    gpu::upload(device_normals_.get(), normals_.data(), bytes);
+    gpu::upload(device_normals_.get(), normals.data(), bytes);
   }
 
   DeviceScene device_scene() const {
@@ -234,10 +250,9 @@ class PyAccelerator {
 
   std::vector<float> vertices_;
   std::vector<std::uint32_t> triangles_;
-  std::vector<float> normals_;  ///< 3 per triangle
   std::unique_ptr<Accelerator> accelerator_;
   int device_ = -1;                   ///< the CUDA device of the structure; -1 on the CPU
-  gpu::DeviceMemory device_normals_;  ///< normals_ on device_
+  gpu::DeviceMemory device_normals_;  ///< 3 floats per triangle, on device_
 };
 
 /// OBJ or PLY (also .gz / .xz) as (vertices float32 (V, 3), triangles uint32 (T, 3)); invalid
