@@ -24,10 +24,18 @@ struct Result {
   std::string out, err;
 };
 
+/// One directory per test process for the runs' output, removed when the process exits (ctest
+/// runs every test in a process of its own).
 fs::path scratch_dir() {
-  const auto dir = fs::temp_directory_path() / ("irgrid_test_cli_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  return dir;
+  static const struct Scratch {
+    fs::path dir = fs::temp_directory_path() / ("irgrid_test_cli_" + std::to_string(::getpid()));
+    Scratch() { fs::create_directories(dir); }
+    ~Scratch() {
+      std::error_code ignored;
+      fs::remove_all(dir, ignored);
+    }
+  } scratch;
+  return scratch.dir;
 }
 
 std::string read_text(const fs::path& path) {
