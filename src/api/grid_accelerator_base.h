@@ -34,6 +34,7 @@ class GridAcceleratorBase : public Accelerator {
   Structure structure() const override { return structure_; }
   const BuildStats& build_stats() const override { return info_; }
 
+  using Accelerator::trace;  // over RayArrays / HitArrays: converted, or walked in place
   void trace(std::span<const Ray> rays, std::span<Hit> hits, Query query) const override {
     check_trace_spans(rays, hits);
     trace_checked(rays, hits, {}, query);

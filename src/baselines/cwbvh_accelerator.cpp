@@ -28,6 +28,7 @@ class CwbvhCpu final : public Accelerator {
     bvh_ = build_cwbvh_timed(mesh, options_, info_);
   }
 
+  using Accelerator::trace;  // and trace over RayArrays / HitArrays, converting
   void trace(std::span<const Ray> rays, std::span<Hit> hits, Query query) const override {
     check_trace_spans(rays, hits);
     run(rays, hits, {}, query);

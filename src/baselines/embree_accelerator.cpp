@@ -100,6 +100,7 @@ class EmbreeCpu final : public Accelerator {
   Backend backend() const override { return Backend::cpu; }
   const BuildStats& build_stats() const override { return info_; }
 
+  using Accelerator::trace;  // and trace over RayArrays / HitArrays, converting
   void trace(std::span<const Ray> rays, std::span<Hit> hits, Query query) const override {
     check_trace_spans(rays, hits);
     irgrid::parallel_for(

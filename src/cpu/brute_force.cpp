@@ -23,6 +23,7 @@ class BruteForceCpu final : public Accelerator {
     build(mesh);
   }
 
+  using Accelerator::trace;  // and trace over RayArrays / HitArrays, converting
   void trace(std::span<const Ray> rays, std::span<Hit> hits, Query query) const override {
     check_trace_spans(rays, hits);
     irgrid::parallel_for(tbb::blocked_range<std::size_t>(0, rays.size(), 16),

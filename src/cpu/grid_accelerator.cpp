@@ -42,6 +42,7 @@ class GridCpu final : public GridAcceleratorBase {
   }
 
   Backend backend() const override { return Backend::cpu; }
+  using GridAcceleratorBase::trace;  // over Ray / Hit records
 
   GridView grid_view() const override { return view(); }
 

@@ -47,6 +47,7 @@ class BruteForceCuda final : public Accelerator {
     upload(mesh);  // into the same device buffer
   }
 
+  using Accelerator::trace;  // and trace over RayArrays / HitArrays, converting
   void trace(std::span<const Ray> rays, std::span<Hit> hits, Query query) const override {
     check_trace_spans(rays, hits);
     if (rays.empty()) return;

@@ -54,6 +54,7 @@ class CwbvhCuda final : public Accelerator {
     build(mesh);
   }
 
+  using Accelerator::trace;  // and trace over RayArrays / HitArrays, converting
   void trace(std::span<const Ray> rays, std::span<Hit> hits, Query query) const override {
     check_trace_spans(rays, hits);
     trace_staged(rays, hits, {}, query);
