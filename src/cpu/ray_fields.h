@@ -92,7 +92,8 @@ struct HitFields {
     lines(t, t_stride, 4);
     lines(prim, prim_stride, 4);
     lines(u, u_stride, 4);
-    if (v != u + 1 || v_stride != u_stride) lines(v, v_stride, 4);
+    const bool uv_pairs = u && v == u + 1 && v_stride == u_stride;  // lines asked for with u's
+    if (!uv_pairs) lines(v, v_stride, 4);
     lines(normal, normal_stride, 4);
   }
   /// Hits [first, first + n) go to the fields' element first onwards.
