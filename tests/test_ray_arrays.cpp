@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "cpu/staged_hits.h"
 #include "irgrid/io/random.h"
 #include "irgrid/io/rays.h"
 #include "irgrid/io/scene.h"
@@ -156,6 +157,52 @@ TEST(RayArrays, EveryCpuWalkAndCellLayoutTracesTheArraysAsRecords) {
           scene, *grid, std::string(to_string(walk)) + (compress ? ", compressed" : ""));
     }
   }
+}
+
+TEST(RayArrays, StagedHitsWriteEveryRayWhateverOrderTheyEndIn) {
+  // Ray 0 walks longest: its slot is needed while it still walks, so it writes its own fields;
+  // every other ray goes through the ring, a few at a time, ending in reverse order of a batch.
+  constexpr std::size_t kRays = 3 * StagedHits::kSlots + 123, kBatch = 16;
+  std::vector<float> t(kRays, -1.f);
+  std::vector<std::uint32_t> prim(kRays, 12345u);
+  HitFields fields{};
+  fields.t = t.data(), fields.prim = prim.data(), fields.t_stride = fields.prim_stride = 1;
+  StagedHits out(fields, kRays);
+  const auto hit_of = [](std::size_t ray) { return ray % 5 == 0 ? kNoHit : std::uint32_t(ray); };
+  for (std::size_t first = 0; first < kRays; first += kBatch) {
+    const std::size_t n = std::min(kBatch, kRays - first);
+    out.make_room(first, n);
+    for (std::size_t k = n; k-- > 0;) {
+      const std::size_t ray = first + k;
+      if (ray != 0) out.write(ray, hit_of(ray), float(ray), 0, 0);
+    }
+  }
+  out.write(0, hit_of(0), 0.f, 0, 0);  // the straggler ends last
+  out.finish(kRays);
+  std::size_t wrong = 0;
+  for (std::size_t i = 0; i < kRays; ++i) {
+    const bool miss = hit_of(i) == kNoHit;
+    wrong += prim[i] != hit_of(i) || (miss ? !std::isinf(t[i]) : t[i] != float(i));
+  }
+  EXPECT_EQ(wrong, 0u);
+}
+
+TEST(RayArrays, LargeBatchesOfMixedRaysTraceAsRecords) {
+  // Hundreds of thousands of rays of mixed lengths: each walk's pieces are larger than the
+  // staging ring, and long walks outlive their ring slots.
+  const Scene scene = load_scene("builtin:teapot-stadium:3000");
+  const auto grid = make_accelerator(scene, Structure::irregular);
+  std::vector<Ray> rays;
+  while (rays.size() < 200000) {
+    const auto some = varied_rays(scene);
+    rays.insert(rays.end(), some.begin(), some.end());
+  }
+  std::vector<Hit> records(rays.size());
+  grid->trace(rays, records, Query::closest);
+  const RowRays in(rays, 6);
+  SplitHits out(rays.size());
+  grid->trace(in.arrays(), out.arrays(), Query::closest);
+  expect_split_equals_records(scene, records, out, "200K rays");
 }
 
 TEST(RayArrays, SharedValuesNullBoundsAndUnsetOutputs) {

@@ -71,10 +71,24 @@ struct HitFields {
     if (normal) write_normal(i, hit_prim);
   }
   void write(std::size_t i, const Hit& h) const { write(i, h.prim, h.t, h.u, h.v); }
+  /// write, with the normal already computed (normal_of).
+  void write(std::size_t i, const Hit& h, const Vec3<float>& n) const {
+    if (prim) prim[i * prim_stride] = h.prim;
+    if (t) t[i * t_stride] = h.t;
+    if (u) u[i * u_stride] = h.u;
+    if (v) v[i * v_stride] = h.v;
+    if (normal) {
+      float* out = normal + i * normal_stride;
+      out[0] = n.x, out[1] = n.y, out[2] = n.z;
+    }
+  }
+  /// The normal of triangle `hit_prim`, zero for kNoHit.
+  Vec3<float> normal_of(std::uint32_t hit_prim) const {
+    return hit_prim == kNoHit ? Vec3<float>{0, 0, 0} : triangle_normal(triangles[hit_prim]);
+  }
   /// The normal of triangle `hit_prim` (zero for kNoHit) into ray i's.
   void write_normal(std::size_t i, std::uint32_t hit_prim) const {
-    const Vec3<float> n =
-        hit_prim == kNoHit ? Vec3<float>{0, 0, 0} : triangle_normal(triangles[hit_prim]);
+    const Vec3<float> n = normal_of(hit_prim);
     float* out = normal + i * normal_stride;
     out[0] = n.x, out[1] = n.y, out[2] = n.z;
   }

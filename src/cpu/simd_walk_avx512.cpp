@@ -19,6 +19,7 @@
 
 #include "cpu/ray_fields.h"
 #include "cpu/simd_walk.h"
+#include "cpu/staged_hits.h"
 #include "irgrid/accelerator.h"
 #include "irgrid/kernel/grid_traverse.h"
 

@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <span>
 
+#include "cpu/staged_hits.h"
 #include "irgrid/accelerator.h"
 #include "irgrid/kernel/grid_traverse.h"
 
@@ -101,9 +102,13 @@ struct LaneWalk {
   /// begin_walk, lane-wise, for the lanes of `starting`: lane l begins ray `first` + l of
   /// `rays` (read with gathers at `offsets`). Writes the walks into s and returns the lanes whose
   /// ray enters the grid (where begin_walk returns true); the other lanes of s hold no walk.
+  /// kRecords: the rays are Ray records (all fields from one base, 8 floats apart).
+  template <bool kRecords>
   static M begin_walks(const GridInfo& info, const RayFields& rays, const FieldOffsets& offsets,
                        std::size_t first, Lanes& s, M starting) {
     const auto read = [&](int f) {
+      if constexpr (kRecords)
+        return V::gather(rays.base[0] + 8 * first, V::add(offsets.lane[0], V::splat(f)), starting);
       return V::gather(rays.base[f] + first * rays.stride[f], offsets.lane[f], starting);
     };
     const F org[3] = {read(0), read(1), read(2)}, tmin = read(3);
@@ -660,6 +665,32 @@ struct LaneWalk {
   template <Query kQuery, typename CellT>
   static void trace(const GridView& grid, const RayFields& rays, const HitFields& hits,
                     std::span<RayWork> work, SimdRays lane_rays) {
+    // Two copies of the walk: Hit records as the walk had them before the caller's arrays came
+    // (3-5% of camera and random rays' speed hung on the difference), and staged fields.
+    if (hits.records) {
+      RecordHits out{hits.records};
+      if (is_records(rays))
+        walk<kQuery, CellT, true>(grid, rays, out, work, lane_rays);
+      else
+        walk<kQuery, CellT, false>(grid, rays, out, work, lane_rays);
+      return;
+    }
+    StagedHits out(hits, rays.size());
+    walk<kQuery, CellT, false>(grid, rays, out, work, lane_rays);
+    out.finish(rays.size());
+  }
+
+  /// trace, with the hits going to `out` (RecordHits or StagedHits).
+  /// Whether `rays` are Ray records: every field 8 floats apart, from consecutive addresses.
+  static bool is_records(const RayFields& rays) {
+    for (int f = 0; f < RayFields::kFields; ++f)
+      if (rays.stride[f] != RayFields::kFields || rays.base[f] != rays.base[0] + f) return false;
+    return true;
+  }
+
+  template <Query kQuery, typename CellT, bool kRecordRays, typename Out>
+  static void walk(const GridView& grid, const RayFields& rays, Out& out, std::span<RayWork> work,
+                   SimdRays lane_rays) {
     const bool packets = lane_rays == SimdRays::packets;
     const CellT* cells = cell_array<CellT>(grid);
     const TriangleVertices* triangles = grid.triangles;
@@ -684,13 +715,14 @@ struct LaneWalk {
           const std::size_t ahead = next + kRaysAhead * L;
           if (ahead < rays.size())
             streams.prefetch(ahead, rays.size() - ahead < L ? rays.size() - ahead : L);
-          hits.prefetch(next, count);
-          staged_ready =
-              V::bits(begin_walks(grid.info, rays, offsets, next, staged, V::lanes(starting)));
+          out.make_room(next, count);
+          out.prefetch(next, count);
+          staged_ready = V::bits(
+              begin_walks<kRecordRays>(grid.info, rays, offsets, next, staged, V::lanes(starting)));
           staged_first = next;
           for (std::uint32_t slot = 0; slot < count; ++slot) {
             if (staged_ready >> slot & 1) continue;
-            hits.write(next + slot, kNoHit, 0, 0, 0);
+            out.write(next + slot, kNoHit, 0, 0, 0);
             if (counted) work[next + slot] = {};
           }
           next += count;
@@ -895,7 +927,7 @@ struct LaneWalk {
           const int l = __builtin_ctz(bits);
           const auto prim = std::uint32_t(s.best_prim[l]);
           const std::uint32_t ray = group.ray_of[l];
-          hits.write(ray, prim, s.best_t[l], s.best_u[l], s.best_v[l]);
+          out.write(ray, prim, s.best_t[l], s.best_u[l], s.best_v[l]);
           if (counted)
             work[ray] = {std::uint32_t(group.cells_visited[l]),
                          std::uint32_t(group.triangles_tested[l])};
