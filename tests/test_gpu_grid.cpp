@@ -181,16 +181,20 @@ std::vector<Hit> trace_on_device(const Accelerator& accelerator, const std::vect
   cudaFree(d_hits);
   return hits;
 }
+
+/// 96 x 64 primary rays of the scene's first view.
+std::vector<Ray> camera_rays(const Scene& scene) {
+  RayConfig config;
+  config.width = 96, config.height = 64;
+  return generate_rays(scene, scene_views(scene).front(), RayKind::primary, config, nullptr);
+}
 #endif
 
 TEST(GpuGrid, TraceDeviceOnAStreamEqualsTrace) {
   IRGRID_SKIP_WITHOUT_GPU();
 #if IRGRID_HAS_CUDA
   const Scene scene = load_scene("builtin:teapot-stadium:4000");
-  RayConfig config;
-  config.width = 96, config.height = 64;
-  const auto rays =
-      generate_rays(scene, scene_views(scene).front(), RayKind::primary, config, nullptr);
+  const auto rays = camera_rays(scene);
   AcceleratorOptions options;
   options.backend = Backend::cuda;
   for (const Structure structure : {Structure::irregular, Structure::brute}) {
@@ -212,10 +216,7 @@ TEST(GpuGrid, CallerArraysWithNormalsTraceAsOnTheCpu) {
   IRGRID_SKIP_WITHOUT_GPU();
 #if IRGRID_HAS_CUDA
   const Scene scene = load_scene("builtin:teapot-stadium:4000");
-  RayConfig config;
-  config.width = 96, config.height = 64;
-  const auto rays =
-      generate_rays(scene, scene_views(scene).front(), RayKind::primary, config, nullptr);
+  const auto rays = camera_rays(scene);
   std::vector<float> rows;
   for (const Ray& r : rays) {
     rows.insert(rows.end(), r.org, r.org + 3);
