@@ -11,21 +11,14 @@
 #include "irgrid/io/rays.h"
 #include "irgrid/io/scene.h"
 #include "irgrid/irgrid.h"
+#include "ray_test_support.h"
 
 namespace irgrid {
 namespace {
 
 /// Rays of every standard kind over a scene's first view, small enough for a unit test.
 std::vector<Ray> mixed_rays(const Scene& scene) {
-  RayConfig config;
-  config.width = 64, config.height = 48, config.spp = 1, config.count = 4000;
-  const auto brute = make_accelerator(scene, Structure::brute);
-  std::vector<Ray> rays;
-  for (RayKind kind : {RayKind::primary, RayKind::diffuse, RayKind::random}) {
-    const auto some = generate_rays(scene, scene_views(scene).front(), kind, config, brute.get());
-    rays.insert(rays.end(), some.begin(), some.end());
-  }
-  return rays;
+  return testing::mixed_rays(scene, 64, 48, 4000);
 }
 
 bool same_hits(const std::vector<Hit>& a, const std::vector<Hit>& b) {

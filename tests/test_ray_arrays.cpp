@@ -13,6 +13,7 @@
 #include "irgrid/io/rays.h"
 #include "irgrid/io/scene.h"
 #include "irgrid/irgrid.h"
+#include "ray_test_support.h"
 
 namespace irgrid {
 namespace {
@@ -20,14 +21,7 @@ namespace {
 /// Primary, diffuse and random rays of the scene's first view, each with tmin and tmax of its
 /// own (some rays cut short, some starting late), so that the per-ray intervals matter.
 std::vector<Ray> varied_rays(const Scene& scene) {
-  RayConfig config;
-  config.width = 48, config.height = 32, config.spp = 1, config.count = 3000;
-  const auto brute = make_accelerator(scene, Structure::brute);
-  std::vector<Ray> rays;
-  for (RayKind kind : {RayKind::primary, RayKind::diffuse, RayKind::random}) {
-    const auto some = generate_rays(scene, scene_views(scene).front(), kind, config, brute.get());
-    rays.insert(rays.end(), some.begin(), some.end());
-  }
+  std::vector<Ray> rays = testing::mixed_rays(scene, 48, 32, 3000);
   for (std::size_t i = 0; i < rays.size(); i += 3)
     rays[i].tmax = 0.5f * (i % 7 + 1);
   for (std::size_t i = 1; i < rays.size(); i += 5)

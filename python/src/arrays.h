@@ -3,11 +3,8 @@
 
 #include <cstddef>
 #include <cstdint>
-#include <functional>
 #include <memory>
 #include <new>
-#include <span>
-#include <vector>
 
 #include "irgrid/accelerator.h"
 #include "irgrid/ray.h"

@@ -169,8 +169,7 @@ void check_ray_arrays(const RayArrays& rays) {
 void Accelerator::trace(const RayArrays& rays, const HitArrays& hits, Query query) const {
   check_ray_arrays(rays);
   if (rays.count == 0) return;
-  const float zero = 0, infinity = INFINITY;
-  const RayFields in = ray_fields(rays, &zero, &infinity);
+  const RayFields in = ray_fields(rays);
   const HitFields out = hit_fields(hits, hits.normal ? host_triangles().data() : nullptr);
   const auto trace_converted = [&](std::size_t first, std::size_t count, Ray* ray_buffer,
                                    Hit* hit_buffer) {

@@ -129,19 +129,16 @@ class EmbreeCpu final : public Accelerator {
   /// From Embree's own vertex and index buffers (the mesh is not kept).
   std::span<const TriangleVertices> host_triangles() const override {
     return host_triangles_.get([&](std::vector<TriangleVertices>& out) {
-      out.resize(triangle_count_);
+      out.clear();
       if (triangle_count_ == 0) return;
       RTCGeometry geometry = rtcGetGeometry(scene_, geometry_id_);
-      const auto* vertices =
-          static_cast<const float*>(rtcGetGeometryBufferData(geometry, RTC_BUFFER_TYPE_VERTEX, 0));
-      const auto* indices = static_cast<const std::uint32_t*>(
-          rtcGetGeometryBufferData(geometry, RTC_BUFFER_TYPE_INDEX, 0));
-      for (std::size_t i = 0; i < triangle_count_; ++i) {
-        const std::uint32_t* tri = indices + 3 * i;
-        out[i] = {Vec3<float>::from(vertices + 3 * std::size_t(tri[0])),
-                  Vec3<float>::from(vertices + 3 * std::size_t(tri[1])),
-                  Vec3<float>::from(vertices + 3 * std::size_t(tri[2]))};
-      }
+      const TriangleMesh buffers{
+          static_cast<const float*>(rtcGetGeometryBufferData(geometry, RTC_BUFFER_TYPE_VERTEX, 0)),
+          vertex_count_, 3 * sizeof(float),
+          static_cast<const std::uint32_t*>(
+              rtcGetGeometryBufferData(geometry, RTC_BUFFER_TYPE_INDEX, 0)),
+          triangle_count_};
+      gather_triangles(buffers, out);
     });
   }
 

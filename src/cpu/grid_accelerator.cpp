@@ -99,14 +99,13 @@ class GridCpu final : public GridAcceleratorBase {
   void trace(const RayArrays& rays, const HitArrays& hits, Query query) const override {
     check_ray_arrays(rays);
     if (rays.count == 0) return;
-    const float zero = 0, infinity = INFINITY;
     const HitFields out = hit_fields(hits, grid_.triangles.data());
     if (empty_scene_) {
       for (std::size_t i = 0; i < rays.count; ++i)
         out.write(i, kNoHit, 0, 0, 0);
       return;
     }
-    trace_fields(ray_fields(rays, &zero, &infinity), out, {}, query);
+    trace_fields(ray_fields(rays), out, {}, query);
   }
 
   std::span<const TriangleVertices> host_triangles() const override {

@@ -2,6 +2,7 @@
 #include "cpu/ray_fields.h"
 
 #include <cstddef>
+#include <limits>
 
 namespace irgrid {
 
@@ -15,15 +16,17 @@ RayFields ray_fields(std::span<const Ray> rays) {
   return out;
 }
 
-RayFields ray_fields(const RayArrays& rays, const float* zero, const float* infinity) {
+RayFields ray_fields(const RayArrays& rays) {
+  // What a null tmin or tmax stands for, read with stride 0.
+  static constexpr float kZero = 0, kInfinity = std::numeric_limits<float>::infinity();
   RayFields out{};
   for (int k = 0; k < 3; ++k) {
     out.base[k] = rays.origins + k, out.stride[k] = std::uint32_t(rays.origin_stride);
     out.base[4 + k] = rays.directions + k, out.stride[4 + k] = std::uint32_t(rays.direction_stride);
   }
-  out.base[3] = rays.tmin ? rays.tmin : zero;
+  out.base[3] = rays.tmin ? rays.tmin : &kZero;
   out.stride[3] = rays.tmin ? std::uint32_t(rays.tmin_stride) : 0;
-  out.base[7] = rays.tmax ? rays.tmax : infinity;
+  out.base[7] = rays.tmax ? rays.tmax : &kInfinity;
   out.stride[7] = rays.tmax ? std::uint32_t(rays.tmax_stride) : 0;
   out.count = rays.count;
   return out;

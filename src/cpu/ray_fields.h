@@ -39,9 +39,8 @@ struct RayFields {
 
 /// The records of `rays`.
 RayFields ray_fields(std::span<const Ray> rays);
-/// The caller's arrays (already checked by check_ray_arrays); `zero` and `infinity` stand in for
-/// a null tmin and tmax and must outlive the result.
-RayFields ray_fields(const RayArrays& rays, const float* zero, const float* infinity);
+/// The caller's arrays (already checked by check_ray_arrays, with at least one ray).
+RayFields ray_fields(const RayArrays& rays);
 
 /// Where the hits of a batch go: Hit records, or as HitArrays (null: not written), strides in
 /// elements.
@@ -59,19 +58,16 @@ struct HitFields {
 
   /// Writes the hit of ray i: `prim` kNoHit for a miss, whatever t, u, v say.
   void write(std::size_t i, std::uint32_t hit_prim, float hit_t, float hit_u, float hit_v) const {
-    const bool miss = hit_prim == kNoHit;
+    const Hit h = hit_prim == kNoHit ? Hit{} : Hit{hit_prim, hit_t, hit_u, hit_v};
     if (records) {
-      records[i] = miss ? Hit{} : Hit{hit_prim, hit_t, hit_u, hit_v};
+      records[i] = h;
       return;
     }
-    if (prim) prim[i * prim_stride] = hit_prim;
-    if (t) t[i * t_stride] = miss ? INFINITY : hit_t;
-    if (u) u[i * u_stride] = miss ? 0.f : hit_u;
-    if (v) v[i * v_stride] = miss ? 0.f : hit_v;
-    if (normal) write_normal(i, hit_prim);
+    write(i, h, normal ? normal_of(h.prim) : Vec3<float>{0, 0, 0});
   }
   void write(std::size_t i, const Hit& h) const { write(i, h.prim, h.t, h.u, h.v); }
-  /// write, with the normal already computed (normal_of).
+  /// Writes the fields of hit `h` (a miss as Hit{} holds it), with its normal already computed
+  /// (normal_of).
   void write(std::size_t i, const Hit& h, const Vec3<float>& n) const {
     if (prim) prim[i * prim_stride] = h.prim;
     if (t) t[i * t_stride] = h.t;
@@ -85,30 +81,6 @@ struct HitFields {
   /// The normal of triangle `hit_prim`, zero for kNoHit.
   Vec3<float> normal_of(std::uint32_t hit_prim) const {
     return hit_prim == kNoHit ? Vec3<float>{0, 0, 0} : triangle_normal(triangles[hit_prim]);
-  }
-  /// The normal of triangle `hit_prim` (zero for kNoHit) into ray i's.
-  void write_normal(std::size_t i, std::uint32_t hit_prim) const {
-    const Vec3<float> n = normal_of(hit_prim);
-    float* out = normal + i * normal_stride;
-    out[0] = n.x, out[1] = n.y, out[2] = n.z;
-  }
-  /// Asks for the cache lines that the hits of rays [first, first + n) will be written to, to be
-  /// written: rays about to begin their walks (in flight, stores that miss fill the store
-  /// buffer and stall the walk).
-  void prefetch(std::size_t first, std::size_t n) const {
-    const auto lines = [&](const void* base, std::size_t stride, std::size_t bytes) {
-      if (!base) return;
-      const char* begin = static_cast<const char*>(base) + first * stride * bytes;
-      for (std::size_t byte = 0; byte < n * stride * bytes; byte += 64)
-        __builtin_prefetch(begin + byte, 1);
-    };
-    lines(records, 1, sizeof(Hit));
-    lines(t, t_stride, 4);
-    lines(prim, prim_stride, 4);
-    lines(u, u_stride, 4);
-    const bool uv_pairs = u && v == u + 1 && v_stride == u_stride;  // lines asked for with u's
-    if (!uv_pairs) lines(v, v_stride, 4);
-    lines(normal, normal_stride, 4);
   }
   /// Hits [first, first + n) go to the fields' element first onwards.
   HitFields subrange(std::size_t first) const {

@@ -667,12 +667,9 @@ struct LaneWalk {
                     std::span<RayWork> work, SimdRays lane_rays) {
     // Two copies of the walk: Hit records as the walk had them before the caller's arrays came
     // (3-5% of camera and random rays' speed hung on the difference), and staged fields.
-    if (hits.records) {
+    if (hits.records && is_records(rays)) {
       RecordHits out{hits.records};
-      if (is_records(rays))
-        walk<kQuery, CellT, true>(grid, rays, out, work, lane_rays);
-      else
-        walk<kQuery, CellT, false>(grid, rays, out, work, lane_rays);
+      walk<kQuery, CellT, true>(grid, rays, out, work, lane_rays);
       return;
     }
     StagedHits out(hits, rays.size());
@@ -680,7 +677,6 @@ struct LaneWalk {
     out.finish(rays.size());
   }
 
-  /// trace, with the hits going to `out` (RecordHits or StagedHits).
   /// Whether `rays` are Ray records: every field 8 floats apart, from consecutive addresses.
   static bool is_records(const RayFields& rays) {
     for (int f = 0; f < RayFields::kFields; ++f)
@@ -688,6 +684,8 @@ struct LaneWalk {
     return true;
   }
 
+  /// trace, with the hits going to `out` (RecordHits or StagedHits); kRecordRays: `rays` are
+  /// Ray records (is_records).
   template <Query kQuery, typename CellT, bool kRecordRays, typename Out>
   static void walk(const GridView& grid, const RayFields& rays, Out& out, std::span<RayWork> work,
                    SimdRays lane_rays) {
@@ -716,7 +714,6 @@ struct LaneWalk {
           if (ahead < rays.size())
             streams.prefetch(ahead, rays.size() - ahead < L ? rays.size() - ahead : L);
           out.make_room(next, count);
-          out.prefetch(next, count);
           staged_ready = V::bits(
               begin_walks<kRecordRays>(grid.info, rays, offsets, next, staged, V::lanes(starting)));
           staged_first = next;

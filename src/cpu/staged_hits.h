@@ -23,7 +23,6 @@ namespace irgrid {
 struct RecordHits {
   Hit* records;
   void make_room(std::size_t, std::size_t) {}
-  void prefetch(std::size_t, std::size_t) const {}
   void write(std::size_t ray, std::uint32_t prim, float t, float u, float v) {
     records[ray] = prim == kNoHit ? Hit{} : Hit{prim, t, u, v};
   }
@@ -70,12 +69,6 @@ class StagedHits {
 
   /// Writes out every hit still staged; call once all `end` rays have ended.
   void finish(std::size_t end) { make_room(end + slots_, 0); }
-
-  /// Asks for the lines that the hits of rays [first, first + n) go to, where they are written
-  /// as they end (Hit records).
-  void prefetch(std::size_t first, std::size_t n) const {
-    if (slots_ == 0) out_.prefetch(first, n);
-  }
 
  private:
   struct Staged {
