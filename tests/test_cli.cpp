@@ -274,6 +274,26 @@ TEST_F(Cli, BenchValidatesAndWritesJson) {
   }
 }
 
+TEST_F(Cli, BenchHitArraysTimesTheTraceIntoSeparateArraysOfEveryStructure) {
+  // The grid walks the arrays itself; Embree converts around its trace: both are checked
+  // against their Hit records, normals included, before a figure is written.
+  const auto [r, json] = run_json(
+      "bench builtin:cornell --compare irregular,embree --kinds primary,random --width 24 "
+      "--height 16 --repeat 1 --hit-arrays",
+      "arrays.json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("--hit-arrays"), std::string::npos) << r.out;
+  EXPECT_EQ(json["settings"]["hit_arrays"], true);
+  ASSERT_EQ(json["compare"].size(), 2u);
+  for (const auto& result : json["compare"]) {
+    ASSERT_EQ(result["runs"].size(), 4u) << result["structure"];  // 2 views x 2 kinds
+    for (const auto& run : result["runs"]) {
+      EXPECT_GT(run["arrays_mrays_per_s"].get<double>(), 0) << run;
+      EXPECT_GT(run["arrays_median_ms"].get<double>(), 0) << run;
+    }
+  }
+}
+
 TEST_F(Cli, BenchRebuildTimesEveryFrameOfEveryStructureAndValidatesTheLast) {
   const auto [r, json] = run_json(
       "bench builtin:sphere:2000 --rebuild 3 --compare irregular,uniform --width 32 --height 24 "

@@ -48,6 +48,13 @@ void print_bench_table(const BenchResult& r) {
       fmt::print("{:>4}  {:<8} {:>10.2f} ms {:>10.2f} MRays/s\n", run.view, run.kind,
                  run.host_median_ms, run.host_mrays_per_s);
   }
+  if (std::any_of(r.runs.begin(), r.runs.end(),
+                  [](const BenchRun& run) { return run.arrays_mrays_per_s >= 0; })) {
+    fmt::print("--hit-arrays: the trace into separate t, triangle, uv and normal arrays:\n");
+    for (const auto& run : r.runs)
+      fmt::print("{:>4}  {:<8} {:>10.2f} ms {:>10.2f} MRays/s\n", run.view, run.kind,
+                 run.arrays_median_ms, run.arrays_mrays_per_s);
+  }
   print_validation_table(r);
 }
 
@@ -100,6 +107,10 @@ nlohmann::json result_json(const BenchResult& r) {
       entry["host_median_ms"] = run.host_median_ms;
       entry["host_mrays_per_s"] = run.host_mrays_per_s;
     }
+    if (run.arrays_median_ms >= 0) {
+      entry["arrays_median_ms"] = run.arrays_median_ms;
+      entry["arrays_mrays_per_s"] = run.arrays_mrays_per_s;
+    }
     if (run.checked > 0)
       entry["validation"] = {{"wrong_triangle", run.wrong_triangle},
                              {"wrong_t", run.wrong_t},
@@ -136,6 +147,7 @@ nlohmann::json settings_json(const BenchSettings& s) {
           {"repeat", s.repeat},
           {"build_repeat", s.build_repeat},
           {"validate", s.validate},
+          {"hit_arrays", s.hit_arrays},
           {"validate_reference", s.exact ? "exact" : "double"}};
 }
 

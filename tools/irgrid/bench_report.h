@@ -24,6 +24,10 @@ struct BenchRun {
   /// CUDA only: Accelerator::trace over host arrays, the copies of rays and hits included;
   /// negative elsewhere.
   double host_median_ms = -1, host_mrays_per_s = -1;
+  /// --hit-arrays: trace over the caller's arrays as Python's cast_rays makes it (rows of origin
+  /// and direction read in place; t, triangle, uv and unit normal written to separate arrays);
+  /// negative when not measured.
+  double arrays_median_ms = -1, arrays_mrays_per_s = -1;
   std::uint64_t checked = 0, mismatches = 0;
   /// The kinds of mismatch, and the accepted cases, of irgrid::Validation.
   std::uint64_t wrong_triangle = 0, wrong_t = 0, wrong_uv = 0, outside_window = 0, fragile = 0,
@@ -51,6 +55,7 @@ struct BenchSettings {
   int build_repeat = -1;  ///< timed builds; below 0: as many as `repeat`
   std::uint64_t validate = 10000;
   bool exact = false;  ///< validate against the exact oracle instead of the double reference
+  bool hit_arrays = false;  ///< also time the trace into separate arrays (BenchRun::arrays_*)
 };
 
 /// The machine as bench's JSON names it (CPU, threads, CPU walk, GPU).

@@ -116,6 +116,63 @@ void timed_build(const Scene& scene, int repeat, Contender& c) {
              c.result.backend, c.result.build.build_ms, times.size());
 }
 
+/// --hit-arrays: times `rays` traced as Python's cast_rays traces them (rows of origin and
+/// direction read in place, the hits written to separate arrays, reused between repetitions),
+/// into run.arrays_*, and checks every ray's fields against `hits`, the records' trace.
+void measure_hit_arrays(const Scene& scene, const Accelerator& accelerator,
+                        std::span<const Ray> rays, std::span<const Hit> hits, Query query,
+                        int repeat, BenchRun& run) {
+  const std::size_t n = rays.size();
+  if (n == 0) return;
+  std::vector<float> rows(6 * n), tmin(n), tmax(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    std::copy(rays[i].org, rays[i].org + 3, &rows[6 * i]);
+    std::copy(rays[i].dir, rays[i].dir + 3, &rows[6 * i + 3]);
+    tmin[i] = rays[i].tmin, tmax[i] = rays[i].tmax;
+  }
+  const auto all_equal = [](const std::vector<float>& v) {
+    return std::all_of(v.begin(), v.end(), [&](float x) { return x == v[0]; });
+  };
+  RayArrays in;
+  in.count = n;
+  in.origins = rows.data(), in.origin_stride = 6;
+  in.directions = rows.data() + 3, in.direction_stride = 6;
+  // One value for all rays as Python passes it (tmin=0.0, tmax=inf), else one per ray.
+  in.tmin = tmin.data(), in.tmin_stride = all_equal(tmin) ? 0 : 1;
+  in.tmax = tmax.data(), in.tmax_stride = all_equal(tmax) ? 0 : 1;
+  std::vector<float> t(n), uv(2 * n), normals(3 * n);
+  std::vector<std::uint32_t> prim(n);
+  HitArrays out;
+  out.t = t.data(), out.prim = prim.data();
+  out.u = uv.data(), out.v = uv.data() + 1, out.u_stride = out.v_stride = 2;
+  out.normal = normals.data();
+  accelerator.trace(in, out, query);  // warm-up
+  std::vector<double> times;
+  for (int i = 0; i < repeat; ++i) {
+    const auto start = std::chrono::steady_clock::now();
+    accelerator.trace(in, out, query);
+    times.push_back(milliseconds_since(start));
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    const Hit h{prim[i], t[i], uv[2 * i], uv[2 * i + 1]};
+    Vec3<float> expected{0, 0, 0};
+    if (hits[i].hit()) {
+      const auto& tri = scene.triangles[hits[i].prim];
+      const auto at = [&](int k) { return Vec3<float>::from(scene.vertices[tri[k]].data()); };
+      expected = triangle_normal({at(0), at(1), at(2)});
+    }
+    const bool same_normal = normals[3 * i] == expected.x && normals[3 * i + 1] == expected.y &&
+                             normals[3 * i + 2] == expected.z;
+    if (std::memcmp(&h, &hits[i], sizeof(Hit)) != 0 || !same_normal)
+      throw Error(ErrorCode::internal,
+                  fmt::format("{} {} view {}: the trace into arrays and into Hit records disagree "
+                              "on ray {}",
+                              to_string(accelerator.structure()), run.kind, run.view, i));
+  }
+  run.arrays_median_ms = median(times);
+  run.arrays_mrays_per_s = run.arrays_median_ms > 0 ? double(n) / run.arrays_median_ms / 1000 : 0;
+}
+
 /// Validates o.validate rays against `reference`, which is null when o.validate is 0.
 BenchRun measure(const Scene& scene, const HitReference* reference, const Accelerator& accelerator,
                  std::span<const Ray> rays, Query query, const BenchOptions& o, BenchRun run) {
@@ -148,6 +205,7 @@ BenchRun measure(const Scene& scene, const HitReference* reference, const Accele
                       to_string(accelerator.structure()), run.kind, run.view, differ, run.rays));
   }
   run.mrays_per_s = per_us(run.median_ms);
+  if (o.hit_arrays) measure_hit_arrays(scene, accelerator, rays, hits, query, o.repeat, run);
   if (accelerator.counts_work() && !rays.empty()) {
     std::vector<RayWork> work(rays.size());
     accelerator.trace_counted(rays, hits, work, query);
@@ -369,6 +427,10 @@ void add_bench_command(CLI::App& app) {
   cmd->add_option("--format", o->format, "Format of --rays: irgrid or hagrid")
       ->capture_default_str();
   cmd->add_flag("--any-hit", o->any_hit, "With --rays: occlusion queries");
+  cmd->add_flag("--hit-arrays", o->hit_arrays,
+                "Also time each trace into separate t, triangle, uv and unit-normal arrays from "
+                "rows of origin and direction, as Python's cast_rays makes it (checked against "
+                "the Hit records)");
   cmd->add_option("--repeat", o->repeat, "Timed repetitions (median reported)")
       ->capture_default_str()
       ->check(whole_number(1));
