@@ -54,7 +54,7 @@ struct BenchSettings {
   int repeat = 5;
   int build_repeat = -1;  ///< timed builds; below 0: as many as `repeat`
   std::uint64_t validate = 10000;
-  bool exact = false;  ///< validate against the exact oracle instead of the double reference
+  bool exact = false;       ///< validate against the exact oracle instead of the double reference
   bool hit_arrays = false;  ///< also time the trace into separate arrays (BenchRun::arrays_*)
 };
 
