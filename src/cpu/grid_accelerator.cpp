@@ -1,7 +1,6 @@
 // The irregular grid (and the uniform and two-level grids) built and traversed on the CPU.
 #include <algorithm>
 #include <chrono>
-#include <cmath>
 #include <string>
 #include <utility>
 #include <vector>

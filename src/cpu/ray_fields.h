@@ -42,6 +42,11 @@ RayFields ray_fields(std::span<const Ray> rays);
 /// The caller's arrays (already checked by check_ray_arrays, with at least one ray).
 RayFields ray_fields(const RayArrays& rays);
 
+/// The hit record of a walk's result: Hit{} (the miss) when `prim` is kNoHit, whatever t, u, v say.
+inline Hit hit_record(std::uint32_t prim, float t, float u, float v) {
+  return prim == kNoHit ? Hit{} : Hit{prim, t, u, v};
+}
+
 /// Where the hits of a batch go: Hit records, or as HitArrays (null: not written), strides in
 /// elements.
 struct HitFields {
@@ -58,7 +63,7 @@ struct HitFields {
 
   /// Writes the hit of ray i: `prim` kNoHit for a miss, whatever t, u, v say.
   void write(std::size_t i, std::uint32_t hit_prim, float hit_t, float hit_u, float hit_v) const {
-    const Hit h = hit_prim == kNoHit ? Hit{} : Hit{hit_prim, hit_t, hit_u, hit_v};
+    const Hit h = hit_record(hit_prim, hit_t, hit_u, hit_v);
     if (records) {
       records[i] = h;
       return;

@@ -24,7 +24,7 @@ struct RecordHits {
   Hit* records;
   void make_room(std::size_t, std::size_t) {}
   void write(std::size_t ray, std::uint32_t prim, float t, float u, float v) {
-    records[ray] = prim == kNoHit ? Hit{} : Hit{prim, t, u, v};
+    records[ray] = hit_record(prim, t, u, v);
   }
 };
 
@@ -61,7 +61,7 @@ class StagedHits {
       return;
     }
     const std::size_t slot = ray & (slots_ - 1);
-    ring_[slot].hit = prim == kNoHit ? Hit{} : Hit{prim, t, u, v};
+    ring_[slot].hit = hit_record(prim, t, u, v);
     // Now, while the walk has the triangle in the cache (it just tested it).
     if (out_.normal) ring_[slot].normal = out_.normal_of(prim);
     done_[slot] = true;

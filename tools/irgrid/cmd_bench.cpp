@@ -40,6 +40,23 @@ double median(std::vector<double> values) {
   return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
 }
 
+/// The median wall time, in ms, of `repeat` calls of `call`.
+template <typename Call>
+double median_ms_of(int repeat, Call&& call) {
+  std::vector<double> times;
+  for (int i = 0; i < repeat; ++i) {
+    const auto start = std::chrono::steady_clock::now();
+    call();
+    times.push_back(milliseconds_since(start));
+  }
+  return median(std::move(times));
+}
+
+/// MRays/s of `rays` traced in `ms` (0 for no time).
+double mrays_per_s(std::uint64_t rays, double ms) {
+  return ms > 0 ? double(rays) / ms / 1000.0 : 0.0;
+}
+
 /// Rays whose hits differ in triangle, t, u or v (bit for bit).
 std::size_t count_differing_hits(std::span<const Hit> a, std::span<const Hit> b) {
   std::size_t differ = 0;
@@ -147,18 +164,13 @@ void measure_hit_arrays(const Scene& scene, const Accelerator& accelerator,
   out.u = uv.data(), out.v = uv.data() + 1, out.u_stride = out.v_stride = 2;
   out.normal = normals.data();
   accelerator.trace(in, out, query);  // warm-up
-  std::vector<double> times;
-  for (int i = 0; i < repeat; ++i) {
-    const auto start = std::chrono::steady_clock::now();
-    accelerator.trace(in, out, query);
-    times.push_back(milliseconds_since(start));
-  }
+  const double ms = median_ms_of(repeat, [&] { accelerator.trace(in, out, query); });
   for (std::size_t i = 0; i < n; ++i) {
     const Hit h{prim[i], t[i], uv[2 * i], uv[2 * i + 1]};
     Vec3<float> expected{0, 0, 0};
     if (hits[i].hit()) {
       const auto& tri = scene.triangles[hits[i].prim];
-      const auto at = [&](int k) { return Vec3<float>::from(scene.vertices[tri[k]].data()); };
+      const auto at = [&](int k) { return Vec3<float>::from(scene.vertices[tri[k]]); };
       expected = triangle_normal({at(0), at(1), at(2)});
     }
     const bool same_normal = normals[3 * i] == expected.x && normals[3 * i + 1] == expected.y &&
@@ -169,8 +181,8 @@ void measure_hit_arrays(const Scene& scene, const Accelerator& accelerator,
                               "on ray {}",
                               to_string(accelerator.structure()), run.kind, run.view, i));
   }
-  run.arrays_median_ms = median(times);
-  run.arrays_mrays_per_s = run.arrays_median_ms > 0 ? double(n) / run.arrays_median_ms / 1000 : 0;
+  run.arrays_median_ms = ms;
+  run.arrays_mrays_per_s = mrays_per_s(n, ms);
 }
 
 /// Validates o.validate rays against `reference`, which is null when o.validate is 0.
@@ -180,22 +192,15 @@ BenchRun measure(const Scene& scene, const HitReference* reference, const Accele
   trace_with_progress(
       accelerator, rays, hits, query,
       fmt::format("{} {} view {} warm-up", to_string(accelerator.structure()), run.kind, run.view));
-  std::vector<double> times;
-  for (int i = 0; i < o.repeat; ++i) {
-    const auto start = std::chrono::steady_clock::now();
-    accelerator.trace(rays, hits, query);
-    times.push_back(milliseconds_since(start));
-  }
+  run.median_ms = median_ms_of(o.repeat, [&] { accelerator.trace(rays, hits, query); });
   run.rays = rays.size();
   run.hits =
       std::size_t(std::count_if(hits.begin(), hits.end(), [](const Hit& h) { return h.hit(); }));
-  const auto per_us = [&](double ms) { return ms > 0 ? double(run.rays) / ms / 1000.0 : 0.0; };
-  run.median_ms = median(times);
   if (auto device = time_trace_on_device(accelerator, rays, query, o.repeat)) {
     // The headline figure of a GPU structure is its kernel's, as in the paper; what the copies
     // cost is reported beside it.
     run.host_median_ms = run.median_ms;
-    run.host_mrays_per_s = per_us(run.host_median_ms);
+    run.host_mrays_per_s = mrays_per_s(run.rays, run.host_median_ms);
     run.median_ms = median(device->times_ms);
     const std::size_t differ = count_differing_hits(hits, device->hits);
     if (differ != 0)
@@ -204,7 +209,7 @@ BenchRun measure(const Scene& scene, const HitReference* reference, const Accele
           fmt::format("{} {} view {}: trace_device and trace disagree on {} of {} rays",
                       to_string(accelerator.structure()), run.kind, run.view, differ, run.rays));
   }
-  run.mrays_per_s = per_us(run.median_ms);
+  run.mrays_per_s = mrays_per_s(run.rays, run.median_ms);
   if (o.hit_arrays) measure_hit_arrays(scene, accelerator, rays, hits, query, o.repeat, run);
   if (accelerator.counts_work() && !rays.empty()) {
     std::vector<RayWork> work(rays.size());
