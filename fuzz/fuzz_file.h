@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <cstdio>
+#include <set>
 #include <string>
 
 #include "irgrid/error.h"
@@ -20,10 +21,29 @@ inline const std::string& input_folder() {
   return folder;
 }
 
+/// The input files this process wrote, removed when it exits normally (libFuzzer ends a timed
+/// run with exit()), so that runs do not leave one file per target in /dev/shm.
+class InputFiles {
+ public:
+  InputFiles() = default;
+  InputFiles(const InputFiles&) = delete;
+  InputFiles& operator=(const InputFiles&) = delete;
+  ~InputFiles() {
+    for (const std::string& path : paths_)
+      std::remove(path.c_str());
+  }
+  void add(const std::string& path) { paths_.insert(path); }
+
+ private:
+  std::set<std::string> paths_;
+};
+
 /// Writes `data` to a file named after this process and `suffix` (which picks the reader),
-/// returning its path; the file is reused by every input.
+/// returning its path; the file is reused by every input and removed at exit.
 inline std::string write_input(const std::uint8_t* data, std::size_t size, const char* suffix) {
+  static InputFiles written;
   const std::string path = input_folder() + "/irgrid-fuzz-" + std::to_string(::getpid()) + suffix;
+  written.add(path);
   std::FILE* file = std::fopen(path.c_str(), "wb");
   if (file == nullptr) __builtin_trap();
   if (size > 0 && std::fwrite(data, 1, size, file) != size) __builtin_trap();
