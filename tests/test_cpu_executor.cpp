@@ -18,10 +18,13 @@
 #include <utility>
 #include <vector>
 
+#include "core/release_buffer.h"
 #include "cpu/cpu_executor.h"
 #include "cpu/host_pool.h"
 #include "cpu/memory_meter.h"
 #include "irgrid/error.h"
+#include "irgrid/io/scene.h"
+#include "irgrid/irgrid.h"
 
 namespace irgrid {
 namespace {
@@ -352,6 +355,37 @@ TEST(CpuExecutorBuffers, LargeBuffersAreHugePageAlignedAndMetered) {
     EXPECT_EQ(large.back(), 7u);
   }
   EXPECT_EQ(MemoryMeter::current(), before);
+}
+
+TEST(CpuExecutorBuffers, ReleaseGivesTheMemoryBackWhereBracesKeepIt) {
+  CpuExecutor executor;
+  const std::int64_t before = MemoryMeter::current();
+  auto kept = executor.allocate<std::uint32_t>(1000);
+  auto released = executor.allocate<std::uint32_t>(1000);
+  kept = {};  // vector's initializer-list assignment: empty, capacity kept
+  release_buffer(released);
+  EXPECT_TRUE(kept.empty());
+  EXPECT_EQ(kept.capacity(), 1000u);
+  EXPECT_EQ(released.capacity(), 0u);
+  EXPECT_EQ(MemoryMeter::current() - before, std::int64_t(4000));
+}
+
+// The build's buffers that an accelerator still holds after building are the grid it reports,
+// not more: the 32-byte cells that compression replaces go back at once.
+TEST(CpuExecutorBuffers, AGridAcceleratorHoldsTheMemoryItReports) {
+  const Scene scene = load_scene("builtin:teapot-stadium:3000");
+  Scene stretched = scene;  // the same triangles moved, for a rebuild with other cells
+  for (Vec3f& v : stretched.vertices)
+    v[0] *= 2.5f;
+  const std::int64_t before = MemoryMeter::current();
+  const auto grid = make_accelerator(scene, Structure::irregular);
+  ASSERT_TRUE(grid->build_stats().grid.has_value());
+  EXPECT_TRUE(grid->build_stats().grid->compressed_cells);
+  EXPECT_EQ(MemoryMeter::current() - before, std::int64_t(grid->build_stats().memory_bytes));
+  const std::uint64_t first_cells = grid->build_stats().grid->cells;
+  grid->rebuild(stretched.mesh());
+  EXPECT_NE(grid->build_stats().grid->cells, first_cells);
+  EXPECT_EQ(MemoryMeter::current() - before, std::int64_t(grid->build_stats().memory_bytes));
 }
 
 }  // namespace

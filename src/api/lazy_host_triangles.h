@@ -6,6 +6,7 @@
 #include <span>
 #include <vector>
 
+#include "core/release_buffer.h"
 #include "irgrid/kernel/triangle.h"
 
 namespace irgrid {
@@ -27,7 +28,7 @@ class LazyHostTriangles {
   }
   /// Drops the copy (the triangles moved).
   void reset() {
-    triangles_ = {};
+    release_buffer(triangles_);
     filled_ = false;
   }
 

@@ -9,6 +9,7 @@
 
 #include "api/grid_accelerator_base.h"
 #include "core/construction/compress_cells.h"
+#include "core/release_buffer.h"
 #include "cpu/cpu_executor.h"
 #include "cpu/parallel.h"
 #include "cpu/ray_fields.h"
@@ -53,7 +54,7 @@ class GridCpu final : public GridAcceleratorBase {
     // The arrays of the last grid go first (back to the pool), so a rebuild's peak is one
     // grid's, not two, and the new grid takes the same blocks.
     grid_ = {};
-    compact_cells_ = {};
+    release_buffer(compact_cells_);
     MemoryMeter::reset_peak();
     const std::int64_t before = MemoryMeter::current();
     grid_.triangles = exec.allocate<TriangleVertices>(0);
@@ -61,7 +62,7 @@ class GridCpu final : public GridAcceleratorBase {
     if (!grid_.triangles.empty()) {
       build_grid_and_compress(exec, grid_, compact_cells_, options_.grid, info_.phase_ms,
                               options_.on_phase);
-      if (!compact_cells_.empty()) grid_.cells = {};
+      if (!compact_cells_.empty()) release_buffer(grid_.cells);
     }
     move_onto_huge_pages();
     info_.build_ms = elapsed_ms<std::chrono::steady_clock>(start);

@@ -12,6 +12,7 @@
 #include <cstdint>
 
 #include "core/construction/top_level_refs.h"
+#include "core/release_buffer.h"
 
 namespace irgrid {
 
@@ -66,7 +67,7 @@ void order_cells_spatially(Exec& exec, const GridInfo& info,
     d_order[i] = std::uint32_t(i);
   });
   exec.sort_pairs("cell order sort", d_keys, d_order, num_cells, 3 * (bits - drop));
-  keys = {};
+  release_buffer(keys);
   auto renumber = exec.template allocate<std::uint32_t>(num_cells);
   auto sorted = exec.template allocate<Cell>(num_cells);
   std::uint32_t* d_renumber = renumber.data();
