@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "core/construction/cells.h"
+#include "core/release_buffer.h"
 
 namespace irgrid {
 
@@ -400,7 +401,7 @@ void assemble_top_cell_octrees(Exec& exec, TopCellOctrees<Exec>& octrees, GridAr
     d_order[i] = std::uint32_t(i);
   });
   exec.sort_pairs("octree top-cell order", d_keys, d_order, n, std::max(1, 3 * morton_bits(info)));
-  keys = {};
+  release_buffer(keys);
   std::vector<std::uint32_t> cell_base(n), ref_base(n), ranked(n);
   std::uint32_t* d_ranked = ranked.data();
   const auto base_in_morton_order = [&](const std::vector<std::uint32_t>& per_top,
@@ -420,60 +421,86 @@ void assemble_top_cell_octrees(Exec& exec, TopCellOctrees<Exec>& octrees, GridAr
   const std::uint64_t all_refs = base_in_morton_order(octrees.refs_per_top, ref_base);
   check_reference_count(all_refs, "octree references");
   const auto num_refs = std::uint32_t(all_refs);
-  grid.entries = exec.template allocate<Entry>(num_entries);
-  grid.cells = exec.template allocate<Cell>(num_cells);
-  grid.refs = exec.template allocate<std::uint32_t>(num_refs);
-  Entry* entries = grid.entries.data();
-  Cell* cells = grid.cells.data();
-  std::uint32_t* refs = grid.refs.data();
   ChunkOctrees<Exec>* chunks = octrees.chunks.data();
   const std::uint32_t per_chunk = octrees.top_cells_per_chunk;
   const std::uint32_t *d_cell_base = cell_base.data(), *d_ref_base = ref_base.data();
   const std::uint32_t *cells_per_top = octrees.cells_per_top.data(),
                       *refs_per_top = octrees.refs_per_top.data();
+  // Calls visit(t, l, slot, entry) for every entry of chunk c, top cell after top cell and
+  // level after level: `slot` is the entry's index in the grid's entries (level l's offset
+  // plus its place there).
+  const auto for_each_entry = [&](std::size_t c, const auto& visit) {
+    const ChunkOctrees<Exec>& chunk = chunks[c];
+    const auto top_begin = std::uint32_t(c) * per_chunk;
+    const std::uint32_t top_end = std::min(n, top_begin + per_chunk);
+    const std::uint64_t* chunk_base = chunk_level_base.data() + c * levels;
+    std::vector<std::uint32_t> at(levels, 0);
+    for (std::uint32_t t = top_begin; t < top_end; ++t) {
+      const std::uint32_t* added =
+          chunk.entries_per_level.data() + std::size_t(t - top_begin) * levels;
+      for (std::uint32_t l = 0; l < levels; ++l) {
+        const std::uint64_t out = level_offsets[l] + chunk_base[l];
+        for (std::uint32_t k = at[l]; k < at[l] + added[l]; ++k)
+          visit(t, l, out + k, chunk.levels[l][k]);
+        at[l] += added[l];
+      }
+    }
+  };
+  // Three passes, each freeing the chunks' part it copied before the next array is made, so
+  // that the chunks and the grid's arrays are never all held at once (the build's peak on
+  // Sponza was here, before merging's): references, then cells (which read the levels for
+  // their sizes), then the entries.
+  grid.refs = exec.template allocate<std::uint32_t>(num_refs);
+  std::uint32_t* refs = grid.refs.data();
   exec.for_each("octree copy", chunk_count, [&, chunks](std::size_t c) {
     ChunkOctrees<Exec>& chunk = chunks[c];
     const auto top_begin = std::uint32_t(c) * per_chunk;
     const std::uint32_t top_end = std::min(n, top_begin + per_chunk);
-    const std::uint64_t* chunk_base = chunk_level_base.data() + std::size_t(c) * levels;
-    std::vector<std::uint32_t> at(levels, 0);
-    std::uint32_t cell_at = 0, ref_at = 0;
+    std::uint32_t ref_at = 0;
     for (std::uint32_t t = top_begin; t < top_end; ++t) {
-      const std::uint32_t* added =
-          chunk.entries_per_level.data() + std::size_t(t - top_begin) * levels;
-      // The top cell's cells and references, each contiguous in the chunk and in the grid; a
-      // cell is written where its leaf entry gives its level, hence its size.
-      Cell* to = cells + d_cell_base[t];
-      const ChunkCell* from = chunk.cells.data() + cell_at;
-      const std::uint32_t ref_base_t = d_ref_base[t], top_cells = cells_per_top[t];
-      for (std::uint32_t l = 0; l < levels; ++l) {
-        const std::uint64_t out = level_offsets[l] + chunk_base[l];
-        const std::uint64_t children =
-            l + 1 < levels ? level_offsets[l + 1] + chunk_base[l + 1] : 0;
-        const std::int32_t size = std::int32_t(1) << (info.shift - std::int32_t(l));
-        for (std::uint32_t k = at[l]; k < at[l] + added[l]; ++k) {
-          const Entry e = chunk.levels[l][k];
-          if (e.log_dim() != 0) {
-            entries[out + k] = Entry::inner(1, std::uint32_t(children + e.index()));
-            continue;
-          }
-          const std::uint32_t c = e.index();
-          entries[out + k] = Entry::leaf(d_cell_base[t] + c);
-          const ChunkCell& leaf = from[c];
-          const std::uint32_t end = c + 1 < top_cells ? from[c + 1].begin : refs_per_top[t];
-          to[c] = {{leaf.lo[0], leaf.lo[1], leaf.lo[2]},
-                   ref_base_t + leaf.begin,
-                   {leaf.lo[0] + size, leaf.lo[1] + size, leaf.lo[2] + size},
-                   ref_base_t + end};
-        }
-        at[l] += added[l];
-      }
       std::copy(chunk.refs.begin() + ref_at, chunk.refs.begin() + (ref_at + refs_per_top[t]),
-                refs + ref_base_t);
-      cell_at += cells_per_top[t];
+                refs + d_ref_base[t]);
       ref_at += refs_per_top[t];
     }
-    chunk = {};  // freed as soon as copied
+    release_buffer(chunk.refs);
+  });
+  grid.cells = exec.template allocate<Cell>(num_cells);
+  Cell* cells = grid.cells.data();
+  exec.for_each("octree copy", chunk_count, [&, chunks](std::size_t c) {
+    ChunkOctrees<Exec>& chunk = chunks[c];
+    // A top cell's cells are contiguous in the chunk and in the grid; a cell is written where
+    // its leaf entry gives its level, hence its size.
+    std::uint32_t cell_at = 0, current = std::uint32_t(c) * per_chunk;
+    for_each_entry(c, [&](std::uint32_t t, std::uint32_t l, std::uint64_t, Entry e) {
+      for (; current != t; ++current)
+        cell_at += cells_per_top[current];
+      if (e.log_dim() != 0) return;
+      const std::uint32_t i = e.index();
+      const ChunkCell* from = chunk.cells.data() + cell_at;
+      const ChunkCell& leaf = from[i];
+      const std::uint32_t end = i + 1 < cells_per_top[t] ? from[i + 1].begin : refs_per_top[t];
+      const std::int32_t size = std::int32_t(1) << (info.shift - std::int32_t(l));
+      const std::uint32_t ref_base_t = d_ref_base[t];
+      cells[d_cell_base[t] + i] = {{leaf.lo[0], leaf.lo[1], leaf.lo[2]},
+                                   ref_base_t + leaf.begin,
+                                   {leaf.lo[0] + size, leaf.lo[1] + size, leaf.lo[2] + size},
+                                   ref_base_t + end};
+    });
+    release_buffer(chunk.cells);
+  });
+  grid.entries = exec.template allocate<Entry>(num_entries);
+  Entry* entries = grid.entries.data();
+  exec.for_each("octree copy", chunk_count, [&, chunks](std::size_t c) {
+    const std::uint64_t* chunk_base = chunk_level_base.data() + c * levels;
+    for_each_entry(c, [&](std::uint32_t t, std::uint32_t l, std::uint64_t slot, Entry e) {
+      if (e.log_dim() != 0) {
+        entries[slot] =
+            Entry::inner(1, std::uint32_t(level_offsets[l + 1] + chunk_base[l + 1] + e.index()));
+      } else {
+        entries[slot] = Entry::leaf(d_cell_base[t] + e.index());
+      }
+    });
+    chunks[c] = {};  // freed as soon as copied
   });
   grid.level_offsets.clear();
   for (std::uint32_t l = 0; l <= levels; ++l) {
