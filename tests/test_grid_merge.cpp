@@ -192,6 +192,40 @@ TEST_P(GridMerge, InPlaceSweepsGiveTheSameGridAsRebuildingOnes) {
   EXPECT_TRUE(same_grid(merged_round_by_round(c.before, 2.f), rebuilt));
 }
 
+/// The CPU executor merging as the CUDA executor does: chains by pointer jumping, merged cells
+/// written to new arrays.
+struct GpuWayExecutor : CpuExecutor {
+  static constexpr bool kSerialMergeChains = false;
+  static constexpr bool kCompactsInPlace = false;
+};
+
+TEST_P(GridMerge, TheGpuWayOfMergingGivesTheSameGrid) {
+  const MergeCase& c = merge_case(GetParam());
+  for (const float in_place_below : {0.f, kMergeInPlaceBelow, 2.f}) {
+    GpuWayExecutor exec;
+    GridArrays<GpuWayExecutor> gpu_way;
+    gpu_way.info = c.before.info;
+    gpu_way.entries = c.before.entries;
+    gpu_way.cells = c.before.cells;
+    gpu_way.refs = c.before.refs;
+    gpu_way.triangles = c.before.triangles;
+    merge_cells(exec, gpu_way, kAlpha, kCostRatio, kEmptyAspect, in_place_below);
+    Grid same;
+    same.info = gpu_way.info;
+    same.entries = gpu_way.entries;
+    same.cells = gpu_way.cells;
+    same.refs = gpu_way.refs;
+    EXPECT_TRUE(same_grid(same, c.after)) << "in place below " << in_place_below;
+  }
+}
+
+// The merged cells are compacted in place; their array ends at its size, not the first sweep's.
+TEST_P(GridMerge, MergedCellsTakeNoMoreMemoryThanTheirCount) {
+  const MergeCase& c = merge_case(GetParam());
+  EXPECT_EQ(c.after.cells.size(), c.after.info.num_cells);
+  EXPECT_EQ(c.after.cells.capacity(), c.after.info.num_cells);
+}
+
 /// Random rays through the scene box, and rays that start on faces of merged cells.
 std::vector<Ray> test_rays(const Scene& scene, const Grid& grid) {
   std::vector<Ray> rays = random_rays(scene.bounds(), 3000, 41);

@@ -41,6 +41,15 @@ class CpuExecutor {
   /// build's.
   static constexpr bool kDepthFirstOctrees = true;
 
+  /// Merging pairs the cells of each proposal chain by walking it from its head in one body
+  /// (core/construction/merge_pairs.h, chain_parity), not by pointer jumping.
+  static constexpr bool kSerialMergeChains = true;
+
+  /// Merging writes the merged cells over the old ones and compacts them in place
+  /// (compact_in_place), instead of into new arrays beside the old: the first sweep held both,
+  /// the build's memory peak.
+  static constexpr bool kCompactsInPlace = true;
+
   /// Bytes of host memory the build may still take (0 when unknown): the build stops with an
   /// error naming its parameters before it would outgrow them (check_memory_budget), instead of
   /// being killed by the system or its container.
@@ -166,6 +175,38 @@ class CpuExecutor {
       for (std::size_t i = blocks.begin(block); i < blocks.end(block); ++i)
         if (keep(i, in[i])) *next++ = in[i];
     });
+    return total;
+  }
+
+  /// Stable compaction in place: for every i in [0, n) where keep(i), in increasing i,
+  /// move(i, to) moves element i (of each array being compacted) to position `to`, the number
+  /// of kept elements before it; returns how many were kept. For arrays too large to hold twice:
+  /// blocks compact to their own fronts in parallel, then one thread moves each block's kept
+  /// elements down into place, in order (a move's target never lies past its source). keep must
+  /// be pure and must not read the arrays being moved.
+  template <typename Keep, typename Move>
+  std::size_t compact_in_place(const char* name, std::size_t n, Keep keep, Move move) const {
+    const PhaseTimer timer(*this, name);
+    const detail::BlockPartition blocks(n, select_block_size);
+    std::vector<std::size_t> kept(blocks.count);
+    detail::for_each_block(blocks, [&](std::size_t block) {
+      const std::size_t begin = blocks.begin(block);
+      std::size_t to = begin;
+      for (std::size_t i = begin; i < blocks.end(block); ++i) {
+        if (!keep(i)) continue;
+        if (i != to) move(i, to);
+        ++to;
+      }
+      kept[block] = to - begin;
+    });
+    std::size_t total = 0;
+    for (std::size_t block = 0; block < blocks.count; ++block) {
+      const std::size_t begin = blocks.begin(block);
+      if (total != begin)
+        for (std::size_t k = 0; k < kept[block]; ++k)
+          move(begin + k, total + k);
+      total += kept[block];
+    }
     return total;
   }
 

@@ -64,6 +64,13 @@ class CudaExecutor {
   /// Octrees level by level: a few wide passes per level (CpuExecutor::kDepthFirstOctrees).
   static constexpr bool kDepthFirstOctrees = false;
 
+  /// Merge chains by pointer jumping: a serial walk of a long chain would hold up its warp
+  /// (CpuExecutor::kSerialMergeChains).
+  static constexpr bool kSerialMergeChains = false;
+
+  /// Merged cells go to new arrays (CpuExecutor::kCompactsInPlace).
+  static constexpr bool kCompactsInPlace = false;
+
   /// No host-memory estimate for the build (CpuExecutor::memory_budget): the build's arrays
   /// live on the device, whose allocations fail with an error when it is full.
   static std::uint64_t memory_budget() { return 0; }

@@ -13,6 +13,7 @@
 
 #include "core/construction/merge_pairs.h"
 #include "core/number_text.h"
+#include "core/release_buffer.h"
 #include "irgrid/error.h"
 
 namespace irgrid {
@@ -110,14 +111,22 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
     }
   });
   grid.refs = std::move(merged_refs);
-  auto merged_cells = exec.template allocate<Cell>(num_cells);
-  auto merged_quiet = exec.template allocate<std::uint32_t>(num_cells);
-  Cell* out_cells = merged_cells.data();
   // Each old cell's new id, written over new_id: a surviving cell's is its own, and an absorbed
   // cell's entry, which only its absorber writes, is read by no one else before the remap.
   std::uint32_t* remap = new_id;
+  // In place (kCompactsInPlace): each surviving cell becomes its merged cell where it stands,
+  // then the survivors move down to their new ids. A merged cell reads only itself and the cell
+  // it absorbs, which no one writes, so the first pass needs no second array.
+  constexpr bool in_place = Exec::kCompactsInPlace;
+  typename Exec::template Buffer<Cell> merged_cells;
+  typename Exec::template Buffer<std::uint32_t> merged_quiet;
+  if constexpr (!in_place) {
+    merged_cells = exec.template allocate<Cell>(num_cells);
+    merged_quiet = exec.template allocate<std::uint32_t>(num_cells);
+  }
+  Cell* out_cells = in_place ? grid.cells.data() : merged_cells.data();
   const std::uint32_t* old_quiet = quiet.data();
-  std::uint32_t* new_quiet = merged_quiet.data();
+  std::uint32_t* new_quiet = in_place ? quiet.data() : merged_quiet.data();
   exec.for_each("merge write cells", n, [=] IRGRID_HD(std::size_t i) {
     if (leaves_the_array(parity, absorbed_by, i)) return;
     Cell merged = cells[i];
@@ -133,9 +142,21 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
     }
     merged.begin = begin;
     merged.end = begin + count;
-    out_cells[id] = merged;
-    new_quiet[id] = next[i] != kNoCell ? 0u : old_quiet[i];
+    const std::size_t at = Exec::kCompactsInPlace ? i : id;
+    out_cells[at] = merged;
+    new_quiet[at] = next[i] != kNoCell ? 0u : old_quiet[i];
   });
+  if constexpr (in_place) {
+    exec.compact_in_place(
+        "merge compact cells", n,
+        [=](std::size_t i) { return !leaves_the_array(parity, absorbed_by, i); },
+        [=](std::size_t from, std::size_t to) {
+          out_cells[to] = out_cells[from];
+          new_quiet[to] = new_quiet[from];
+        });
+    grid.cells.resize(num_cells);
+    quiet.resize(num_cells);
+  }
   Entry* entries = grid.entries.data();
   exec.for_each("merge remap entries", grid.info.num_entries, [=] IRGRID_HD(std::size_t i) {
     if (entries[i].log_dim() != 0) return;
@@ -148,9 +169,11 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
       if (heads_pair(parity, next, i))
         wake_cells_below(info, entries, out_cells[new_id[i]], new_quiet, nullptr);
     });
-  quiet = std::move(merged_quiet);
-  forward = {};
-  grid.cells = std::move(merged_cells);
+  if constexpr (!in_place) {
+    quiet = std::move(merged_quiet);
+    grid.cells = std::move(merged_cells);
+  }
+  release_buffer(forward);
   grid.info.num_cells = num_cells;
   grid.info.num_refs = num_refs;
 }
@@ -244,8 +267,8 @@ void merge_sweep(Exec& exec, GridArrays<Exec>& grid, int axis, float cost_ratio,
       propose_merges(exec, grid, axis, cost_ratio, empty_aspect, next.data(), prev.data(),
                      union_size.data(), quiet.data(), track);
   if (proposals == 0) return;
-  const auto parity = chain_parity(exec, prev.data(), n);
-  prev = {};  // back to the pool before the merges ask for their arrays of n
+  const auto parity = chain_parity(exec, next.data(), prev.data(), n);
+  release_buffer(prev);  // back to the pool before the merges ask for their arrays of n
   if (double(proposals) < double(in_place_below) * double(n)) {
     const std::uint32_t merged = apply_merges_in_place(exec, grid, next.data(), union_size.data(),
                                                        parity.data(), quiet.data(), forward, track);
@@ -323,6 +346,8 @@ void merge_cells(Exec& exec, GridArrays<Exec>& grid, float alpha, float cost_rat
     if (after == before || double(after) >= double(alpha) * double(before)) break;
   }
   merge_detail::drop_absorbed_cells(exec, grid, quiet, forward);
+  // Compacted in place, the cells still hold the first sweep's array: down to their size.
+  if constexpr (Exec::kCompactsInPlace) grid.cells.shrink_to_fit();
 }
 
 }  // namespace irgrid

@@ -6,13 +6,13 @@
 // of three sweeps repeat while a round removes enough cells (../shared/design/algorithm.md §4).
 //
 // One sweep merges disjoint pairs only. Proposals c -> next(c) form chains along the axis; the
-// chains are resolved in parallel by list ranking (pointer jumping, O(log length) passes) instead
-// of the reference code's serial walk from each chain head:
+// CPU walks each chain from its head, as the reference code does, the GPU resolves them by list
+// ranking (pointer jumping, O(log length) passes); both give the same pairs:
 //   * every cell learns the parity of its distance from the head of its chain;
 //   * a cell at even distance that proposed merges with its successor, which is at odd distance;
 //   * a cell at odd distance is absorbed by its predecessor and proposes nothing itself.
-// This is exactly the pairing of the serial walk (positions 0+1, 2+3, ...), so the result does
-// not depend on the order in which threads run, and every pass is a plain for_each.
+// This is the pairing of the serial walk (positions 0+1, 2+3, ...), so the result does not
+// depend on the order in which threads run.
 //
 // Later rounds merge few cells, so most proposals would be recomputed from unchanged inputs. A
 // cell's proposal along an axis depends only on the cell and on the owner of the voxel past its
@@ -170,15 +170,35 @@ std::uint32_t propose_merges(Exec& exec, const GridArrays<Exec>& grid, int axis,
       [=] IRGRID_HD(std::size_t i) { return std::uint32_t(next[i] != kNoCell); });
 }
 
-/// Parity (0 even, 1 odd) of every cell's distance from the head of its proposal chain, by
-/// pointer jumping over prev: each pass adds the parity of the current ancestor and jumps to its
-/// ancestor, so ceil(log2(longest chain)) passes suffice. Only cells with a predecessor take part
-/// (a head's parity is 0), so later sweeps, with few proposals, touch few cells. Passes read one
-/// pair of arrays and write the other, so no pass reads what it writes and the result is
-/// deterministic; cells that do not take part hold the same values in both.
+/// Parity (0 even, 1 odd) of every cell's distance from the head of its proposal chain (`next`
+/// and `prev` from propose_merges; a cell without a predecessor has parity 0).
+///
+/// Executors with kSerialMergeChains walk each chain from its head in one body, which writes
+/// the parity of every cell it passes: O(n) work and no memory but the result. Chains along an
+/// axis are short next to the number of cells, so the walks keep a CPU's threads busy; on a
+/// GPU a long chain would hold up its warp.
+///
+/// Otherwise by pointer jumping over prev: each pass adds the parity of the current ancestor and
+/// jumps to its ancestor, so ceil(log2(longest chain)) passes suffice. Only cells with a
+/// predecessor take part (a head's parity is 0), so later sweeps, with few proposals, touch few
+/// cells. Passes read one pair of arrays and write the other, so no pass reads what it writes and
+/// the result is deterministic; cells that do not take part hold the same values in both.
 template <typename Exec>
-typename Exec::template Buffer<std::uint8_t> chain_parity(Exec& exec, const std::uint32_t* prev,
+typename Exec::template Buffer<std::uint8_t> chain_parity(Exec& exec, const std::uint32_t* next,
+                                                          const std::uint32_t* prev,
                                                           std::uint32_t n) {
+  if constexpr (Exec::kSerialMergeChains) {
+    auto parity_buffer = exec.template allocate<std::uint8_t>(n);
+    std::uint8_t* parity = parity_buffer.data();
+    exec.for_each("merge chain walk", n, [=](std::size_t i) {
+      if (prev[i] != kNoCell) return;  // written by the walk from its chain's head
+      parity[i] = 0;
+      std::uint8_t distance = 1;
+      for (std::uint32_t c = next[i]; c != kNoCell; c = next[c], distance ^= 1)
+        parity[c] = distance;
+    });
+    return parity_buffer;
+  }
   auto parity_a = exec.template allocate<std::uint8_t>(n);
   auto parity_b = exec.template allocate<std::uint8_t>(n);
   auto ancestor_a = exec.template allocate<std::uint32_t>(n);
