@@ -61,41 +61,52 @@ IRGRID_HD inline void wake_cells_below(const GridInfo& info, const Entry* entrie
   }
 }
 
+/// The quiet bits of the n cells (propose_merges), made zero where none are yet. They are made
+/// on first use, so that the first round, which tracks none and merges most cells, runs
+/// without them: an empty buffer stands for all zero.
+template <typename Exec>
+void make_quiet_bits(Exec& exec, typename Exec::template Buffer<std::uint32_t>& quiet,
+                     std::uint32_t n) {
+  if (quiet.size() != 0 || n == 0) return;
+  quiet = exec.template allocate<std::uint32_t>(n);
+  std::uint32_t* d_quiet = quiet.data();
+  exec.for_each("merge quiet init", n, [=] IRGRID_HD(std::size_t i) { d_quiet[i] = 0; });
+}
+
 /// Turns the resolved pairs into new cells and references, scans giving the new cell ids and
 /// reference offsets, and points every leaf of the voxel map at its new cell. `quiet` (one entry
-/// per cell, see propose_merges) is carried over to the new cells: cleared for merged cells and,
-/// when `track` is set, for the cells below a merged cell's lower corner. Cells absorbed by
-/// earlier in-place sweeps (`forward`, see apply_merges_in_place) are dropped, their map leaves
-/// pointed at the cell that absorbed them, and `forward` is emptied.
+/// per cell, see propose_merges; empty: all zero, and it stays empty) is carried over to the new
+/// cells: cleared for merged cells and, when `track` is set, for the cells below a merged cell's
+/// lower corner. Cells absorbed by earlier in-place sweeps (`forward`, see
+/// apply_merges_in_place) are dropped, their map leaves pointed at the cell that absorbed them,
+/// and `forward` is emptied. `union_size` is overwritten with the new lists' offsets.
 template <typename Exec>
 void apply_merges(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
-                  const std::uint32_t* union_size, const std::uint8_t* parity,
+                  std::uint32_t* union_size, const std::uint8_t* parity,
                   typename Exec::template Buffer<std::uint32_t>& quiet,
                   typename Exec::template Buffer<std::uint32_t>& forward, bool track) {
   const std::uint32_t n = grid.info.num_cells;
   const Cell* cells = grid.cells.data();
   const std::uint32_t* refs = grid.refs.data();
-  auto new_id_buffer = exec.template allocate<std::uint32_t>(n);
-  auto new_begin_buffer = exec.template allocate<std::uint32_t>(n);
-  std::uint32_t *new_id = new_id_buffer.data(), *new_begin = new_begin_buffer.data();
+  // A cell's new list offset goes where its union's size was, and the new ids are counted once
+  // the old references went back: the first sweeps make the build's peak. The new cells take
+  // their ends from their successors' begins (the lists follow the cells without gaps).
+  std::uint32_t* new_begin = union_size;
   // Odd positions are absorbed; even ones that proposed merge forward.
   const std::uint32_t* absorbed_by = forward.size() != 0 ? forward.data() : nullptr;
   exec.for_each("merge counts", n, [=] IRGRID_HD(std::size_t i) {
     const bool absorbed = leaves_the_array(parity, absorbed_by, i),
                merges = !absorbed && next[i] != kNoCell;
-    new_id[i] = absorbed ? 0 : 1;
-    new_begin[i] = absorbed ? 0 : (merges ? union_size[i] : cells[i].end - cells[i].begin);
+    new_begin[i] = absorbed ? 0 : (merges ? new_begin[i] : cells[i].end - cells[i].begin);
   });
-  const std::uint32_t num_cells = exec.exclusive_scan("merge cell ids", new_id, new_id, n);
   const std::uint32_t num_refs = exec.exclusive_scan("merge ref offsets", new_begin, new_begin, n);
-  if (num_cells > kMaxEntryTarget || num_refs > kMaxEntryTarget)
-    throw Error(ErrorCode::limit_exceeded, "merging: " + std::to_string(num_cells) + " cells, " +
-                                               std::to_string(num_refs) +
-                                               " references; at most 2^30 - 1 each");
+  if (num_refs > kMaxEntryTarget)
+    throw Error(ErrorCode::limit_exceeded,
+                "merging: " + std::to_string(num_refs) + " references; at most 2^30 - 1");
   // The lists first, then the boxes, so that the old references go back before the new cells
-  // are made: the first sweeps make the build's peak (the paper's §3.2 writes both in one pass).
-  // One thread per surviving cell (the paper copies unmerged lists warp-cooperatively; a CUDA
-  // executor may want that for load balance).
+  // are made (the paper's §3.2 writes both in one pass). One thread per surviving cell (the
+  // paper copies unmerged lists warp-cooperatively; a CUDA executor may want that for load
+  // balance).
   auto merged_refs = exec.template allocate<std::uint32_t>(num_refs);
   std::uint32_t* out_refs = merged_refs.data();
   exec.for_each("merge write lists", n, [=] IRGRID_HD(std::size_t i) {
@@ -111,6 +122,13 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
     }
   });
   grid.refs = std::move(merged_refs);
+  auto new_id_buffer = exec.template allocate<std::uint32_t>(n);
+  std::uint32_t* new_id = new_id_buffer.data();
+  exec.for_each("merge cell ids", n, [=] IRGRID_HD(std::size_t i) {
+    new_id[i] = leaves_the_array(parity, absorbed_by, i) ? 0 : 1;
+  });
+  // At most the n cells there were.
+  const std::uint32_t num_cells = exec.exclusive_scan("merge cell ids", new_id, new_id, n);
   // Each old cell's new id, written over new_id: a surviving cell's is its own, and an absorbed
   // cell's entry, which only its absorber writes, is read by no one else before the remap.
   std::uint32_t* remap = new_id;
@@ -118,33 +136,30 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
   // then the survivors move down to their new ids. A merged cell reads only itself and the cell
   // it absorbs, which no one writes, so the first pass needs no second array.
   constexpr bool in_place = Exec::kCompactsInPlace;
+  const bool has_quiet = quiet.size() != 0;
   typename Exec::template Buffer<Cell> merged_cells;
   typename Exec::template Buffer<std::uint32_t> merged_quiet;
   if constexpr (!in_place) {
     merged_cells = exec.template allocate<Cell>(num_cells);
-    merged_quiet = exec.template allocate<std::uint32_t>(num_cells);
+    if (has_quiet) merged_quiet = exec.template allocate<std::uint32_t>(num_cells);
   }
   Cell* out_cells = in_place ? grid.cells.data() : merged_cells.data();
-  const std::uint32_t* old_quiet = quiet.data();
-  std::uint32_t* new_quiet = in_place ? quiet.data() : merged_quiet.data();
+  const std::uint32_t* old_quiet = has_quiet ? quiet.data() : nullptr;
+  std::uint32_t* new_quiet = !has_quiet ? nullptr : in_place ? quiet.data() : merged_quiet.data();
   exec.for_each("merge write cells", n, [=] IRGRID_HD(std::size_t i) {
     if (leaves_the_array(parity, absorbed_by, i)) return;
     Cell merged = cells[i];
-    const std::uint32_t id = new_id[i], begin = new_begin[i];
-    // A union's size is exact (proposes_merge): the lists above filled [begin, begin + count).
-    std::uint32_t count = merged.end - merged.begin;
+    const std::uint32_t id = new_id[i];
     if (next[i] != kNoCell) {
       const Cell b = cells[next[i]];
       remap[next[i]] = id;  // the absorbed cell's only writer: it has one predecessor
-      count = union_size[i];
       for (int axis = 0; axis < 3; ++axis)
         merged.hi[axis] = b.hi[axis];
     }
-    merged.begin = begin;
-    merged.end = begin + count;
+    merged.begin = new_begin[i];
     const std::size_t at = Exec::kCompactsInPlace ? i : id;
     out_cells[at] = merged;
-    new_quiet[at] = next[i] != kNoCell ? 0u : old_quiet[i];
+    if (new_quiet) new_quiet[at] = next[i] != kNoCell ? 0u : old_quiet[i];
   });
   if constexpr (in_place) {
     exec.compact_in_place(
@@ -152,11 +167,15 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
         [=](std::size_t i) { return !leaves_the_array(parity, absorbed_by, i); },
         [=](std::size_t from, std::size_t to) {
           out_cells[to] = out_cells[from];
-          new_quiet[to] = new_quiet[from];
+          if (new_quiet) new_quiet[to] = new_quiet[from];
         });
     grid.cells.resize(num_cells);
-    quiet.resize(num_cells);
+    if (has_quiet) quiet.resize(num_cells);
   }
+  // A union's size is exact (proposes_merge), so each list ends where the next cell's begins.
+  exec.for_each("merge cell ends", num_cells, [=] IRGRID_HD(std::size_t k) {
+    out_cells[k].end = k + 1 < num_cells ? out_cells[k + 1].begin : num_refs;
+  });
   Entry* entries = grid.entries.data();
   exec.for_each("merge remap entries", grid.info.num_entries, [=] IRGRID_HD(std::size_t i) {
     if (entries[i].log_dim() != 0) return;
@@ -170,7 +189,7 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
         wake_cells_below(info, entries, out_cells[new_id[i]], new_quiet, nullptr);
     });
   if constexpr (!in_place) {
-    quiet = std::move(merged_quiet);
+    if (has_quiet) quiet = std::move(merged_quiet);
     grid.cells = std::move(merged_cells);
   }
   release_buffer(forward);
@@ -263,13 +282,15 @@ void merge_sweep(Exec& exec, GridArrays<Exec>& grid, int axis, float cost_ratio,
   auto next = exec.template allocate<std::uint32_t>(n);
   auto prev = exec.template allocate<std::uint32_t>(n);
   auto union_size = exec.template allocate<std::uint32_t>(n);
+  if (track) make_quiet_bits(exec, quiet, n);
   const std::uint32_t proposals =
       propose_merges(exec, grid, axis, cost_ratio, empty_aspect, next.data(), prev.data(),
-                     union_size.data(), quiet.data(), track);
+                     union_size.data(), quiet.size() != 0 ? quiet.data() : nullptr, track);
   if (proposals == 0) return;
   const auto parity = chain_parity(exec, next.data(), prev.data(), n);
   release_buffer(prev);  // back to the pool before the merges ask for their arrays of n
   if (double(proposals) < double(in_place_below) * double(n)) {
+    make_quiet_bits(exec, quiet, n);  // absorbed cells are marked quiet
     const std::uint32_t merged = apply_merges_in_place(exec, grid, next.data(), union_size.data(),
                                                        parity.data(), quiet.data(), forward, track);
     absorbed += merged;
@@ -287,6 +308,7 @@ void drop_absorbed_cells(Exec& exec, GridArrays<Exec>& grid,
   if (forward.size() == 0) return;
   const std::uint32_t n = grid.info.num_cells;
   auto next = exec.template allocate<std::uint32_t>(n);
+  auto offsets = exec.template allocate<std::uint32_t>(n);
   auto parity = exec.template allocate<std::uint8_t>(n);
   std::uint32_t* d_next = next.data();
   std::uint8_t* d_parity = parity.data();
@@ -294,7 +316,7 @@ void drop_absorbed_cells(Exec& exec, GridArrays<Exec>& grid,
     d_next[i] = kNoCell;
     d_parity[i] = 0;
   });
-  apply_merges(exec, grid, d_next, d_next, d_parity, quiet, forward, false);
+  apply_merges(exec, grid, d_next, offsets.data(), d_parity, quiet, forward, false);
 }
 
 }  // namespace merge_detail
@@ -329,10 +351,7 @@ void merge_cells(Exec& exec, GridArrays<Exec>& grid, float alpha, float cost_rat
     throw Error(ErrorCode::invalid_argument, "empty_aspect = " + number_text(empty_aspect) +
                                                  " must be 0 (no bound) or a number >= 1");
   if (!(alpha > 0)) return;
-  auto quiet = exec.template allocate<std::uint32_t>(grid.info.num_cells);
-  std::uint32_t* d_quiet = quiet.data();
-  exec.for_each("merge quiet init", grid.info.num_cells,
-                [=] IRGRID_HD(std::size_t i) { d_quiet[i] = 0; });
+  typename Exec::template Buffer<std::uint32_t> quiet;  // made on first use (make_quiet_bits)
   // The first round merges most cells: waking their neighbours would cost more than the
   // proposals it saves in the second round, so quiet cells are tracked from the second on.
   typename Exec::template Buffer<std::uint32_t> forward;

@@ -120,7 +120,8 @@ IRGRID_HD inline std::uint32_t merge_partner(const GridInfo& info, const Entry* 
 /// Proposals of one sweep: next[c] (kNoCell if none), union_size[c] and prev[next[c]] = c (a
 /// cell has at most one aligned predecessor, so that write has a single writer). quiet[c] holds
 /// one bit per axis: set, c is known to propose nothing along it and is skipped; a cell found to
-/// propose nothing gets the bit. Returns the number of proposals.
+/// propose nothing gets the bit when `track` is set. quiet may be null (all bits clear) when
+/// `track` is not. Returns the number of proposals.
 template <typename Exec>
 std::uint32_t propose_merges(Exec& exec, const GridArrays<Exec>& grid, int axis, float cost_ratio,
                              float empty_aspect, std::uint32_t* next, std::uint32_t* prev,
@@ -144,7 +145,8 @@ std::uint32_t propose_merges(Exec& exec, const GridArrays<Exec>& grid, int axis,
       next[i] = kNoCell;
       union_size[i] = 0;
       prev[i] = kNoCell;
-      if ((quiet[i] & bit) == 0 && voxel_past_upper_face(info, cells[i], axis, past[walks]))
+      if ((quiet == nullptr || (quiet[i] & bit) == 0) &&
+          voxel_past_upper_face(info, cells[i], axis, past[walks]))
         walking[walks++] = i;
     }
     lookup_cells<kBatch>(info, entries, past, walks, owners);
