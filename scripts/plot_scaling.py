@@ -37,7 +37,7 @@ def main(results, out_dir):
     for key in sorted(set(runs) | failed):
         family, structure, n = key
         if key in failed:
-            rows.append(f"| {family} | {n:,} | {structure} | failed | | | |")
+            rows.append(f"| {family} | {n:,} | {structure} | failed | | | | |")
             continue
         rs = runs[key]
         ms = statistics.median(r["build_ms"] for r in rs)
@@ -46,11 +46,17 @@ def main(results, out_dir):
         grid = rs[0]["grid_bytes"] / 2**20
         phases = rs[0]["phases_ms"]
         top = sorted(phases.items(), key=lambda p: -p[1])[:3]
-        rows.append(f"| {family} | {tris:,} | {structure} | {ms:,.0f} | {grid:,.0f} | {rss:,.0f} | "
-                    + ", ".join(f"{k} {v:,.0f}" for k, v in top) + " |")
+        # The build's own buffers at their peak, and the phase that made it (grids only).
+        peaks = rs[0].get("phase_peak_bytes") or {}
+        build_peak = ""
+        if peaks:
+            phase, most = max(peaks.items(), key=lambda p: p[1])
+            build_peak = f"{most / 2**20:,.0f} ({most / rs[0]['grid_bytes']:.2f}×, {phase})"
+        rows.append(f"| {family} | {tris:,} | {structure} | {ms:,.0f} | {grid:,.0f} | {build_peak} | "
+                    f"{rss:,.0f} | " + ", ".join(f"{k} {v:,.0f}" for k, v in top) + " |")
         series[(family, structure)].append((tris, ms))
-    lines = ["| scene | triangles | structure | build ms (median) | structure MiB | process peak MiB | largest phases (ms, one run) |",
-             "| --- | --- | --- | --- | --- | --- | --- |"] + rows + [""]
+    lines = ["| scene | triangles | structure | build ms (median) | structure MiB | build peak MiB (× structure, phase) | process peak MiB | largest phases (ms, one run) |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- |"] + rows + [""]
     for (family, structure), points in sorted(series.items()):
         if len(points) >= 2:
             lines.append(f"- {family}, {structure}: time ~ N^{exponent(points):.2f} "

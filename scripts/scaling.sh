@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Build-time scaling: `irgrid build` of the grid and of Embree over builtin:hairball:N and
 # builtin:sphere:N for N from 100K to 10M (one process per build, the median of REPEAT runs),
-# with the process's peak memory. Writes out/scaling/results.jsonl, then the table and the plot
+# with the build's memory peak (the largest phase's) and the process's peak memory. Writes out/scaling/results.jsonl, then the table and the plot
 # (scripts/plot_scaling.py: out/scaling/scaling.md and scaling.png; needs matplotlib).
 #   scripts/scaling.sh [SIZES...]     default: 100000 300000 1000000 3000000 10000000
 # Environment: IRGRID_BIN (default build/irgrid), PYTHON (with matplotlib; default python3),
@@ -38,6 +38,7 @@ print(json.dumps({"family": family, "n": int(n), "structure": structure,
                   "phases_ms": d.get("build_phases_ms", {}),
                   "grid_bytes": d["memory_bytes"],
                   "peak_build_bytes": d.get("counts", {}).get("peak_build_bytes"),
+                  "phase_peak_bytes": d.get("build_phase_peak_bytes", {}),
                   "max_rss_bytes": int(maxrss_kb) * 1024, "wall_s": float(wall_s)}))
 PY
       done

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <oneapi/tbb/task_arena.h>
 
+#include <algorithm>
 #include <cstring>
 #include <thread>
 #include <vector>
@@ -271,6 +272,15 @@ TEST(Api, BuildStatsAreTyped) {
   EXPECT_GE(g.lambda2_used, 2.4);
   for (const BuildPhase phase : {BuildPhase::top_grid, BuildPhase::merge, BuildPhase::expansion})
     EXPECT_TRUE(stats.phase_ms[std::size_t(phase)].has_value()) << to_string(phase);
+  // A memory peak for every phase that ran, and the build's peak is the largest of them.
+  std::uint64_t largest = 0;
+  for (std::size_t p = 0; p < kBuildPhaseCount; ++p) {
+    EXPECT_EQ(g.phase_peak_bytes[p].has_value(), stats.phase_ms[p].has_value())
+        << to_string(BuildPhase(p));
+    if (g.phase_peak_bytes[p]) largest = std::max(largest, *g.phase_peak_bytes[p]);
+  }
+  EXPECT_GE(*g.phase_peak_bytes[std::size_t(BuildPhase::merge)], g.triangles_bytes);
+  EXPECT_EQ(g.peak_build_bytes, largest);
   EXPECT_TRUE(stats.primitives.empty());
   AcceleratorOptions options;
   options.profile_primitives = true;

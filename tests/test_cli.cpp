@@ -372,6 +372,9 @@ TEST_F(Cli, BuildPrintsStatisticsAndJson) {
   EXPECT_TRUE(json["config"]["skip_empty"].get<bool>());
   EXPECT_GT(json["memory_breakdown_bytes"]["empty_radii"].get<int>(), 0);
   EXPECT_GT(json["build_phases_ms"].count("empty space"), 0u);
+  // The build's memory peak per phase, one for every phase that ran.
+  EXPECT_EQ(json["build_phase_peak_bytes"].size(), json["build_phases_ms"].size());
+  EXPECT_GT(json["build_phase_peak_bytes"]["merge"].get<std::uint64_t>(), 0u);
   const auto [walled, walled_json] =
       run_json("build builtin:cornell --no-skip-empty", "walled.json");
   ASSERT_EQ(walled.code, 0) << walled.err;

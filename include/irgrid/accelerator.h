@@ -90,6 +90,9 @@ const char* to_string(BuildPhase phase) noexcept;
 /// Wall time of each grid build phase that ran, indexed by BuildPhase.
 using PhaseTimes = std::array<std::optional<double>, kBuildPhaseCount>;
 
+/// Bytes per grid build phase that ran, indexed by BuildPhase.
+using PhaseBytes = std::array<std::optional<std::uint64_t>, kBuildPhaseCount>;
+
 /// What a grid build made (zero for structures that are not grids).
 struct GridStats {
   std::uint64_t top_level_references = 0;   ///< (top cell, triangle) pairs
@@ -106,6 +109,8 @@ struct GridStats {
   /// The most memory the build held at once beyond what it started with (host memory of the
   /// build's buffers on the CPU, the device memory pool's peak on CUDA).
   std::uint64_t peak_build_bytes = 0;
+  /// The same peak within each build phase that ran: peak_build_bytes is their largest.
+  PhaseBytes phase_peak_bytes{};
   /// Blocks of the build's buffers that this build took from the system (the CUDA driver, the
   /// host allocator) rather than from the memory pool that earlier builds of the same
   /// accelerator filled: 0 when a rebuild reused them all.

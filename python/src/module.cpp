@@ -221,6 +221,10 @@ class PyAccelerator {
       out["compressed_cells"] = g.compressed_cells;
       out["lambda2_used"] = g.lambda2_used;
       out["peak_build_bytes"] = g.peak_build_bytes;
+      nb::dict phase_peaks;
+      for (std::size_t p = 0; p < kBuildPhaseCount; ++p)
+        if (g.phase_peak_bytes[p]) phase_peaks[to_string(BuildPhase(p))] = *g.phase_peak_bytes[p];
+      out["build_phase_peak_bytes"] = phase_peaks;
       out["budget_bytes"] = g.budget_bytes;
       out["budget_limited"] = g.budget_limited;
     }

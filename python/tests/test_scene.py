@@ -127,6 +127,8 @@ def test_stats_and_memory():
     assert stats["structure"] == "irregular" and stats["triangles"] == 12
     assert stats["cells"] > 0 and stats["memory_bytes"] == scene.memory_bytes > 0
     assert "top grid" in stats["build_phases_ms"]
+    assert stats["build_phase_peak_bytes"].keys() == stats["build_phases_ms"].keys()
+    assert max(stats["build_phase_peak_bytes"].values()) == stats["peak_build_bytes"]
     assert stats["lambda2_used"] >= 3.0
 
 

@@ -55,6 +55,12 @@ class CpuExecutor {
   /// being killed by the system or its container.
   static std::uint64_t memory_budget() { return host_memory_available(); }
 
+  /// The most bytes the buffers held at once since reset_memory_peak(). Here the whole
+  /// process's buffers (MemoryMeter): builds running side by side share it.
+  static std::uint64_t memory_peak() { return std::uint64_t(MemoryMeter::peak()); }
+  /// Starts a new peak from the bytes the buffers hold now.
+  static void reset_memory_peak() { MemoryMeter::reset_peak(); }
+
   /// Buffers come from `pool` when it is given (it must outlive them), so that rebuilds reuse
   /// the blocks of earlier builds; from the system allocator otherwise.
   explicit CpuExecutor(HostPool* pool = nullptr) : pool_(pool) {}

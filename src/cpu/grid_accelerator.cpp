@@ -59,15 +59,18 @@ class GridCpu final : public GridAcceleratorBase {
     const std::int64_t before = MemoryMeter::current();
     grid_.triangles = exec.allocate<TriangleVertices>(0);
     gather_triangles(mesh, grid_.triangles);
+    std::uint64_t peak_outside = std::uint64_t(MemoryMeter::peak());
+    PhaseBytes phase_peaks{};
     if (!grid_.triangles.empty()) {
       build_grid_and_compress(exec, grid_, compact_cells_, options_.grid, info_.phase_ms,
-                              options_.on_phase);
+                              options_.on_phase, &phase_peaks);
       if (!compact_cells_.empty()) release_buffer(grid_.cells);
     }
     move_onto_huge_pages();
     info_.build_ms = elapsed_ms<std::chrono::steady_clock>(start);
-    record_grid_statistics(grid_, !compact_cells_.empty(), options_.grid,
-                           std::uint64_t(MemoryMeter::peak() - before), info_);
+    peak_outside = std::max<std::uint64_t>(peak_outside, MemoryMeter::peak());
+    const std::uint64_t peak = peaks_beyond(phase_peaks, peak_outside, std::uint64_t(before));
+    record_grid_statistics(grid_, !compact_cells_.empty(), options_.grid, peak, info_, phase_peaks);
     info_.grid->fresh_allocations = pool_.fresh_allocations() - fresh_before;
     if (options_.profile_primitives) info_.primitives = primitives_by_time(exec);
   }

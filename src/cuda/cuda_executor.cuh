@@ -190,6 +190,10 @@ class CudaExecutor {
   /// Bounds the bytes the pool keeps cached by the construction budget
   /// (CpuExecutor::limit_cached_memory).
   void limit_cached_memory(std::uint64_t bytes) const { pool_->set_cache_limit(bytes); }
+  /// The most bytes the pool gave out at once since reset_memory_peak()
+  /// (CpuExecutor::memory_peak).
+  std::uint64_t memory_peak() const { return pool_->peak(); }
+  void reset_memory_peak() const { pool_->reset_peak(); }
 
  private:
   static constexpr unsigned kThreads = 256;

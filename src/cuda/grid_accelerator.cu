@@ -42,8 +42,9 @@ __global__ void fill_misses_kernel(Hit* hits, std::size_t count) {
 /// build_grid_and_compress, then waits for the device (kernel errors surface here).
 void build_on_device(CudaExecutor& exec, GridArrays<CudaExecutor>& grid,
                      CudaExecutor::Buffer<CompactCell>& compact, const BuildConfig& config,
-                     PhaseTimes& phases_ms, const PhaseObserver& on_phase = {}) {
-  build_grid_and_compress(exec, grid, compact, config, phases_ms, on_phase);
+                     PhaseTimes& phases_ms, const PhaseObserver& on_phase = {},
+                     PhaseBytes* phase_peaks = nullptr) {
+  build_grid_and_compress(exec, grid, compact, config, phases_ms, on_phase, phase_peaks);
   exec.synchronize();
 }
 
@@ -104,14 +105,16 @@ class GridCuda final : public GridAcceleratorBase {
     compact_cells_ = {};
     grid_.triangles = upload_triangles(exec_, mesh);
     exec_.pool().reset_peak();
+    PhaseBytes phase_peaks{};
     if (!grid_.triangles.empty()) {
       build_on_device(exec_, grid_, compact_cells_, options_.grid, info_.phase_ms,
-                      options_.on_phase);
+                      options_.on_phase, &phase_peaks);
       if (!compact_cells_.empty()) grid_.cells.reset();
     }
     info_.build_ms = elapsed_ms<std::chrono::steady_clock>(start);
-    record_grid_statistics(grid_, !compact_cells_.empty(), options_.grid, exec_.pool().peak(),
-                           info_);
+    // The pool's peaks count every block it gave out, the triangles' included.
+    const std::uint64_t peak = peaks_beyond(phase_peaks, exec_.pool().peak(), 0);
+    record_grid_statistics(grid_, !compact_cells_.empty(), options_.grid, peak, info_, phase_peaks);
     info_.grid->fresh_allocations = exec_.pool().fresh_allocations() - fresh_before;
   }
 

@@ -88,9 +88,14 @@ void print_statistics(const Scene& scene, const Accelerator& accelerator, const 
   fmt::print("{} on {} over {} ({} triangles): built in {:.2f} ms\n",
              to_string(accelerator.structure()), to_string(accelerator.backend()), scene.name,
              scene.triangle_count(), stats.build_ms);
-  for (std::size_t p = 0; p < kBuildPhaseCount; ++p)
-    if (stats.phase_ms[p])
-      fmt::print("  phase {:<22} {:>10.2f} ms\n", to_string(BuildPhase(p)), *stats.phase_ms[p]);
+  for (std::size_t p = 0; p < kBuildPhaseCount; ++p) {
+    if (!stats.phase_ms[p]) continue;
+    fmt::print("  phase {:<22} {:>10.2f} ms", to_string(BuildPhase(p)), *stats.phase_ms[p]);
+    if (stats.grid && stats.grid->phase_peak_bytes[p])
+      fmt::print(" {:>10.2f} MiB at its peak",
+                 double(*stats.grid->phase_peak_bytes[p]) / 1048576.0);
+    fmt::print("\n");
+  }
   if (stats.grid) {
     const GridStats& g = *stats.grid;
     if (accelerator.structure() == Structure::irregular && g.lambda2_used != grid.lambda2)

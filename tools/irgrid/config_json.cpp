@@ -45,6 +45,10 @@ void add_build_stats_json(nlohmann::json& out, Structure structure, const BuildS
     for (const auto& [name, count] : grid_counts(g))
       out["counts"][name] = count;
     out["counts"]["peak_build_bytes"] = g.peak_build_bytes;
+    nlohmann::json phase_peaks = nlohmann::json::object();
+    for (std::size_t p = 0; p < kBuildPhaseCount; ++p)
+      if (g.phase_peak_bytes[p]) phase_peaks[to_string(BuildPhase(p))] = *g.phase_peak_bytes[p];
+    out["build_phase_peak_bytes"] = phase_peaks;
   }
   if (stats.bvh) {
     const BvhStats& b = *stats.bvh;

@@ -79,17 +79,31 @@ OctreeDepths<Exec> plan_octree_depths(Exec& exec, GridInfo& info, const RefPairs
 }
 
 /// Wall time of the build's phases, in order; waits for the executor before each reading.
+/// With `phase_peaks`, also the executor's memory peak within each phase (memory_peak), which
+/// it restarts at each phase: the caller's peak of the whole build is then the largest of them
+/// and of the executor's peak after the last phase.
 template <typename Exec>
 class PhaseClock {
  public:
-  PhaseClock(Exec& exec, PhaseTimes& phases_ms, PhaseObserver on_phase = {})
-      : exec_(exec), phases_ms_(phases_ms), on_phase_(std::move(on_phase)) {}
+  PhaseClock(Exec& exec, PhaseTimes& phases_ms, PhaseObserver on_phase = {},
+             PhaseBytes* phase_peaks = nullptr)
+      : exec_(exec),
+        phases_ms_(phases_ms),
+        on_phase_(std::move(on_phase)),
+        phase_peaks_(phase_peaks) {
+    if (phase_peaks_) exec_.reset_memory_peak();
+  }
   void lap(BuildPhase phase) {
     exec_.synchronize();
     const auto now = std::chrono::steady_clock::now();
     auto& ms = phases_ms_[std::size_t(phase)];
     ms = ms.value_or(0.0) + std::chrono::duration<double, std::milli>(now - last_).count();
     last_ = now;
+    if (phase_peaks_) {
+      auto& peak = (*phase_peaks_)[std::size_t(phase)];
+      peak = std::max<std::uint64_t>(peak.value_or(0), exec_.memory_peak());
+      exec_.reset_memory_peak();
+    }
     if (on_phase_) on_phase_(phase);
   }
 
@@ -97,6 +111,7 @@ class PhaseClock {
   Exec& exec_;
   PhaseTimes& phases_ms_;
   PhaseObserver on_phase_;
+  PhaseBytes* phase_peaks_;
   std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
 };
 
@@ -208,11 +223,13 @@ std::int32_t build_initial_grid(Exec& exec, GridArrays<Exec>& grid, const BuildC
 }
 
 /// Builds the grid over the triangles already gathered into grid.triangles; adds the time of
-/// each phase to phases_ms and tells on_phase (when set) as each one ends.
+/// each phase to phases_ms, tells on_phase (when set) as each one ends and, with phase_peaks,
+/// records the executor's memory peak of each phase there (PhaseClock).
 template <typename Exec>
 void build_grid(Exec& exec, GridArrays<Exec>& grid, const BuildConfig& config,
-                PhaseTimes& phases_ms, const PhaseObserver& on_phase = {}) {
-  PhaseClock clock(exec, phases_ms, on_phase);
+                PhaseTimes& phases_ms, const PhaseObserver& on_phase = {},
+                PhaseBytes* phase_peaks = nullptr) {
+  PhaseClock clock(exec, phases_ms, on_phase, phase_peaks);
   const std::int32_t deepest_lambda2 = build_initial_grid(exec, grid, config, clock);
   // Merging and expansion (paper §3.2-3.3) only for the irregular grid: the uniform and
   // two-level grids are the baselines without them.

@@ -61,10 +61,11 @@ template <typename Exec>
 void build_grid_and_compress(Exec& exec, GridArrays<Exec>& grid,
                              typename Exec::template Buffer<CompactCell>& compact,
                              const BuildConfig& config, PhaseTimes& phases_ms,
-                             const PhaseObserver& on_phase = {}) {
-  build_grid(exec, grid, config, phases_ms, on_phase);
+                             const PhaseObserver& on_phase = {},
+                             PhaseBytes* phase_peaks = nullptr) {
+  build_grid(exec, grid, config, phases_ms, on_phase, phase_peaks);
   if (!config.compress || !fits_compact_cells(grid.info)) return;
-  PhaseClock clock(exec, phases_ms, on_phase);
+  PhaseClock clock(exec, phases_ms, on_phase, phase_peaks);
   compress_cells(exec, grid, compact);
   clock.lap(BuildPhase::compress);
 }

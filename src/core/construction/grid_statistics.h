@@ -10,11 +10,27 @@
 
 namespace irgrid {
 
+/// Turns the executor's memory peak of each phase (PhaseClock) into bytes beyond `before`, the
+/// tally the build started from, and returns the build's peak beyond it: the largest of them
+/// and of `peak_outside`, the executor's peak outside the phases.
+inline std::uint64_t peaks_beyond(PhaseBytes& phase_peaks, std::uint64_t peak_outside,
+                                  std::uint64_t before) {
+  std::uint64_t most = peak_outside;
+  for (auto& peak : phase_peaks) {
+    if (!peak) continue;
+    most = *peak > most ? *peak : most;
+    *peak = *peak > before ? *peak - before : 0;
+  }
+  return most > before ? most - before : 0;
+}
+
 /// Fills the grid statistics and total bytes of `out` from a built grid's arrays (`compressed`:
-/// with 16-byte cells) and the build's transient memory peak_build_bytes.
+/// with 16-byte cells) and the build's transient memory: peak_build_bytes, and phase_peaks per
+/// phase (peaks_beyond).
 template <typename Arrays>
 void record_grid_statistics(const Arrays& grid, bool compressed, const BuildConfig& config,
-                            std::uint64_t peak_build_bytes, BuildStats& out) {
+                            std::uint64_t peak_build_bytes, BuildStats& out,
+                            const PhaseBytes& phase_peaks = {}) {
   const GridInfo& g = grid.info;
   const std::uint32_t top_level_refs = grid.top_level_refs;
   GridStats s;
@@ -38,6 +54,7 @@ void record_grid_statistics(const Arrays& grid, bool compressed, const BuildConf
   s.triangles_bytes = std::uint64_t(g.num_triangles) * sizeof(TriangleVertices);
   s.empty_radii_bytes = grid.empty_radii.size();
   s.peak_build_bytes = peak_build_bytes;
+  s.phase_peak_bytes = phase_peaks;
   out.memory_bytes = s.cells_bytes + s.references_bytes + s.voxel_map_bytes + s.triangles_bytes +
                      s.empty_radii_bytes;
   out.grid = s;
