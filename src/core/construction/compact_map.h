@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/construction/cells.h"
+#include "core/release_buffer.h"
 
 namespace irgrid {
 
@@ -61,10 +62,14 @@ IRGRID_HD inline std::uint32_t walk_octree(const Entry* entries, std::uint32_t e
 /// placed by a scan over the roots' block sizes, and the inner members of those blocks become the
 /// roots of the next chunk (a stable selection, so blocks come out in the order of a serial
 /// breadth-first walk). Every step is an executor primitive, so the map never leaves the device.
+/// Consumes `depth` (collapse_map's) and the octree-form entries before the blocks are joined
+/// into one array, so that the joining holds the new map twice but the old one no longer.
 template <typename Exec>
-void flatten_map(Exec& exec, GridArrays<Exec>& grid, const std::uint8_t* depth) {
+void flatten_map(Exec& exec, GridArrays<Exec>& grid,
+                 typename Exec::template Buffer<std::uint8_t>& depth_buffer) {
   using Indices = typename Exec::template Buffer<std::uint32_t>;
   const Entry* old = grid.entries.data();
+  const std::uint8_t* depth = depth_buffer.data();
   const std::uint32_t top = grid.level_offsets[1];
   std::vector<typename Exec::template Buffer<Entry>> parts;
   parts.push_back(exec.template allocate<Entry>(top));  // the top level keeps its place
@@ -109,21 +114,33 @@ void flatten_map(Exec& exec, GridArrays<Exec>& grid, const std::uint8_t* depth) 
         d_reached[d_offsets[r] + j] = at;
       }
     });
-    // The inner members of the new blocks are the next roots.
-    std::uint32_t next_count = 0;
-    Indices next_slots = select_indices(
-        exec, "flatten map", std::uint32_t(chunk),
-        [=] IRGRID_HD(std::uint32_t j) { return d_block[j].log_dim() != 0; }, next_count);
+    // The inner members of the new blocks are the next roots: their old entries, selected from
+    // `reached`, then their slots, selected from the same array turned into the slot numbers.
+    // Counted first, so that the selections take arrays of that count, not of the chunk's.
+    const auto inner = [=] IRGRID_HD(std::size_t j, std::uint32_t) {
+      return d_block[j].log_dim() != 0;
+    };
+    const std::uint32_t next_count = exec.transform_reduce(
+        "flatten map", chunk, std::uint32_t(0),
+        [] IRGRID_HD(std::uint32_t a, std::uint32_t b) { return a + b; },
+        [=] IRGRID_HD(std::size_t j) { return std::uint32_t(d_block[j].log_dim() != 0); });
     Indices next_roots = exec.template allocate<std::uint32_t>(next_count);
-    std::uint32_t *d_next_roots = next_roots.data(), *d_next_slots = next_slots.data();
-    exec.for_each("flatten map", next_count,
-                  [=] IRGRID_HD(std::size_t k) { d_next_roots[k] = d_reached[d_next_slots[k]]; });
+    Indices next_slots = exec.template allocate<std::uint32_t>(next_count);
+    exec.select_if("flatten map", d_reached, next_roots.data(), chunk, inner);
+    exec.for_each("flatten map", chunk,
+                  [=] IRGRID_HD(std::size_t j) { d_reached[j] = std::uint32_t(j); });
+    exec.select_if("flatten map", d_reached, next_slots.data(), chunk, inner);
+    release_buffer(reached);
     parts.push_back(std::move(block));
     slots = std::move(next_slots);
     roots = std::move(next_roots);
     num_roots = next_count;
     written += std::uint32_t(chunk);
   }
+  release_buffer(slots);
+  release_buffer(roots);
+  release_buffer(depth_buffer);
+  release_buffer(grid.entries);
   grid.entries = concatenate<Exec, Entry>(exec, "flatten map", parts, written);
   grid.info.num_entries = written;
   grid.level_offsets.clear();
@@ -132,8 +149,8 @@ void flatten_map(Exec& exec, GridArrays<Exec>& grid, const std::uint8_t* depth) 
 /// Collapses and flattens the voxel map (after merging).
 template <typename Exec>
 void compact_map(Exec& exec, GridArrays<Exec>& grid) {
-  const auto depth = collapse_map(exec, grid);
-  flatten_map(exec, grid, depth.data());
+  auto depth = collapse_map(exec, grid);
+  flatten_map(exec, grid, depth);
 }
 
 }  // namespace irgrid
