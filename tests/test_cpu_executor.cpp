@@ -514,6 +514,27 @@ TEST(HostPool, ACacheLimitReturnsTheLeastRecentlyFreedBlocksFirst) {
   EXPECT_EQ(pool.cached_bytes(), 5120u + HostPool::class_bytes(100000));
 }
 
+TEST(HostPool, BoundToItsPeakItCachesNoMoreThanItHasGivenOutAtOnce) {
+  HostPool pool;
+  pool.set_bound_to_peak(true);
+  void* older = pool.allocate(4096);
+  pool.release(older, 4096);
+  EXPECT_EQ(pool.cached_bytes(), 4096u);
+  // A fresh 5120-byte block: with the cached one the pool would hold 9216 bytes, more than the
+  // 5120 it ever gave out at once, so the cached block goes back first.
+  void* newer = pool.allocate(5000);
+  EXPECT_EQ(pool.fresh_allocations(), 2u);
+  EXPECT_EQ(pool.cached_bytes(), 0u);
+  pool.release(newer, 5000);
+  EXPECT_EQ(pool.allocate(5000), newer);  // a request its cache serves takes nothing more
+  pool.release(newer, 5000);
+  // Not bound, the pool keeps a block of every size it passed through.
+  pool.set_bound_to_peak(false);
+  void* other = pool.allocate(9000);
+  pool.release(other, 9000);
+  EXPECT_EQ(pool.cached_bytes(), 5120u + HostPool::class_bytes(9000));
+}
+
 TEST(HostPool, ExecutorBuffersComeFromThePoolAndGoBackToIt) {
   HostPool pool;
   const CpuExecutor exec(&pool);

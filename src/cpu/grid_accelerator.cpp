@@ -35,7 +35,11 @@ class GridCpu final : public GridAcceleratorBase {
  public:
   GridCpu(const TriangleMesh& mesh, const AcceleratorOptions& options)
       : GridAcceleratorBase(options) {
+    // The first build caches no more than it holds at its peak: the process's memory is then
+    // about the build's own. Rebuilds cache every size, so that later frames allocate nothing.
+    pool_.set_bound_to_peak(true);
     first_build(mesh);
+    pool_.set_bound_to_peak(false);
     // After a one-off build the cached blocks would hold the build's peak for the grid's life;
     // rebuilds keep them, so that later frames take every block from the cache.
     pool_.trim();

@@ -78,6 +78,7 @@ void* HostPool::allocate(std::size_t bytes) {
     }
     ++fresh_;
     given_bytes_ += size;
+    given_peak_ = std::max(given_peak_, given_bytes_);
     evict_past_limit();
   }
   try {
@@ -134,9 +135,16 @@ void HostPool::set_cache_limit(std::uint64_t bytes) noexcept {
   evict_past_limit();
 }
 
+void HostPool::set_bound_to_peak(bool on) noexcept {
+  const std::lock_guard lock(mutex_);
+  bound_to_peak_ = on;
+}
+
 void HostPool::evict_past_limit() noexcept {
+  std::uint64_t bound = limit_;
+  if (bound_to_peak_) bound = bound == 0 ? given_peak_ : std::min(bound, given_peak_);
   // Linear in the classes per eviction: a build caches a few dozen classes.
-  while (limit_ != 0 && cached_bytes_ != 0 && given_bytes_ + cached_bytes_ > limit_) {
+  while (bound != 0 && cached_bytes_ != 0 && given_bytes_ + cached_bytes_ > bound) {
     auto oldest = cached_.end();
     for (auto it = cached_.begin(); it != cached_.end(); ++it)
       if (!it->second.empty() && (oldest == cached_.end() ||

@@ -57,6 +57,12 @@ class HostPool {
   /// levels of a budget-limited build) left the pool holding every size they had passed
   /// through, twice the build's live peak on builtin:hairball:10000000.
   void set_cache_limit(std::uint64_t bytes) noexcept;
+  /// With `on`, the pool also holds at most the most bytes it has given out at once: when a
+  /// request must come from the system, cached blocks go back first, the least recently freed
+  /// first, until it would. For a one-off build: its process then holds the build's peak, not
+  /// that peak plus a cached block of every size the build passed through. Rebuilds want the
+  /// opposite (every size cached, so that a frame allocates nothing), hence the switch.
+  void set_bound_to_peak(bool on) noexcept;
 
   /// Blocks that came from the system rather than from the cache, since construction.
   std::uint64_t fresh_allocations() const;
@@ -77,7 +83,8 @@ class HostPool {
   /// Gives a block back to the system. Called with mutex_ held.
   void system_release(void* pointer, std::size_t class_size) noexcept;
   /// Returns the least recently freed cached blocks to the system until the pool is within its
-  /// limit or holds none cached. Called with mutex_ held.
+  /// limit (and, bound to its peak, within given_peak_) or holds none cached. Called with
+  /// mutex_ held.
   void evict_past_limit() noexcept;
 
   mutable std::mutex mutex_;
@@ -85,6 +92,9 @@ class HostPool {
   std::map<std::size_t, std::vector<Cached>> cached_;
   std::unordered_map<void*, std::size_t> larger_;  ///< blocks given out for a smaller class
   std::uint64_t fresh_ = 0, cached_bytes_ = 0, given_bytes_ = 0, releases_ = 0, limit_ = 0;
+  /// The most bytes given out at once since construction, and whether it bounds the pool.
+  std::uint64_t given_peak_ = 0;
+  bool bound_to_peak_ = false;
   /// Bytes of small blocks given back since malloc last returned its free pages.
   std::uint64_t heap_released_ = 0;
 };
