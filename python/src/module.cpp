@@ -199,17 +199,24 @@ class PyAccelerator {
     python::test_occlusions_into(device_scene(), rays, occluded);
   }
 
+  /// Phase name -> value, for the phases that have one (PhaseTimes, PhaseBytes).
+  template <typename T>
+  static nb::dict per_phase(const std::array<std::optional<T>, kBuildPhaseCount>& values) {
+    nb::dict out;
+    for (std::size_t p = 0; p < kBuildPhaseCount; ++p)
+      if (values[p]) out[to_string(BuildPhase(p))] = *values[p];
+    return out;
+  }
+
   nb::dict stats() const {
     const BuildStats& s = accelerator_->build_stats();
-    nb::dict out, phases;
+    nb::dict out;
     out["structure"] = structure();
     out["backend"] = backend();
     out["triangles"] = triangles_.size() / 3;
     out["build_ms"] = s.build_ms;
     out["memory_bytes"] = s.memory_bytes;
-    for (std::size_t p = 0; p < kBuildPhaseCount; ++p)
-      if (s.phase_ms[p]) phases[to_string(BuildPhase(p))] = *s.phase_ms[p];
-    out["build_phases_ms"] = phases;
+    out["build_phases_ms"] = per_phase(s.phase_ms);
     if (s.grid) {
       const GridStats& g = *s.grid;
       out["cells"] = g.cells;
@@ -221,10 +228,7 @@ class PyAccelerator {
       out["compressed_cells"] = g.compressed_cells;
       out["lambda2_used"] = g.lambda2_used;
       out["peak_build_bytes"] = g.peak_build_bytes;
-      nb::dict phase_peaks;
-      for (std::size_t p = 0; p < kBuildPhaseCount; ++p)
-        if (g.phase_peak_bytes[p]) phase_peaks[to_string(BuildPhase(p))] = *g.phase_peak_bytes[p];
-      out["build_phase_peak_bytes"] = phase_peaks;
+      out["build_phase_peak_bytes"] = per_phase(g.phase_peak_bytes);
       out["budget_bytes"] = g.budget_bytes;
       out["budget_limited"] = g.budget_limited;
     }

@@ -5,6 +5,19 @@
 
 namespace irgrid::cli {
 
+namespace {
+
+/// Phase name -> value, for the phases that have one (PhaseTimes, PhaseBytes).
+template <typename T>
+nlohmann::json per_phase_json(const std::array<std::optional<T>, kBuildPhaseCount>& values) {
+  nlohmann::json out = nlohmann::json::object();
+  for (std::size_t p = 0; p < kBuildPhaseCount; ++p)
+    if (values[p]) out[to_string(BuildPhase(p))] = *values[p];
+  return out;
+}
+
+}  // namespace
+
 std::vector<std::pair<const char*, std::uint64_t>> grid_counts(const GridStats& g) {
   return {{"top_level_references", g.top_level_references},
           {"cells", g.cells},
@@ -31,10 +44,7 @@ std::vector<std::pair<const char*, std::uint64_t>> grid_array_bytes(const GridSt
 void add_build_stats_json(nlohmann::json& out, Structure structure, const BuildStats& stats,
                           const std::optional<BuildConfig>& grid) {
   out["build_ms"] = stats.build_ms;
-  nlohmann::json phases = nlohmann::json::object();
-  for (std::size_t p = 0; p < kBuildPhaseCount; ++p)
-    if (stats.phase_ms[p]) phases[to_string(BuildPhase(p))] = *stats.phase_ms[p];
-  out["build_phases_ms"] = phases;
+  out["build_phases_ms"] = per_phase_json(stats.phase_ms);
   out["memory_bytes"] = stats.memory_bytes;
   out["memory_breakdown_bytes"] = nlohmann::json::object();
   out["counts"] = nlohmann::json::object();
@@ -45,10 +55,7 @@ void add_build_stats_json(nlohmann::json& out, Structure structure, const BuildS
     for (const auto& [name, count] : grid_counts(g))
       out["counts"][name] = count;
     out["counts"]["peak_build_bytes"] = g.peak_build_bytes;
-    nlohmann::json phase_peaks = nlohmann::json::object();
-    for (std::size_t p = 0; p < kBuildPhaseCount; ++p)
-      if (g.phase_peak_bytes[p]) phase_peaks[to_string(BuildPhase(p))] = *g.phase_peak_bytes[p];
-    out["build_phase_peak_bytes"] = phase_peaks;
+    out["build_phase_peak_bytes"] = per_phase_json(g.phase_peak_bytes);
   }
   if (stats.bvh) {
     const BvhStats& b = *stats.bvh;
