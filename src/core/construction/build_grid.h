@@ -21,6 +21,7 @@
 #include "core/construction/top_grid.h"
 #include "core/construction/top_level_refs.h"
 #include "core/number_text.h"
+#include "core/release_buffer.h"
 #include "irgrid/accelerator.h"
 #include "irgrid/build_config.h"
 
@@ -182,15 +183,18 @@ std::int32_t build_initial_grid(Exec& exec, GridArrays<Exec>& grid, const BuildC
       emit_top_level_refs(exec, triangles, grid.info, std::move(counts.offsets), counts.total);
   grid.top_level_refs = pairs.count;
   clock.lap(BuildPhase::top_level_references);
-  const OctreeDepths<Exec> depths = plan_octree_depths(exec, grid.info, pairs, config);
+  OctreeDepths<Exec> depths = plan_octree_depths(exec, grid.info, pairs, config);
   const bool irregular = config.shape == BuildConfig::Shape::irregular;
   const OctreeRule rule{depths.per_top_cell.data(), config.shape == BuildConfig::Shape::two_level,
                         config.split_refs, depths.count_split, irregular ? kUnpaidSplitRefs : 0};
+  // After the octrees, the last to read the depths: they go before the cells are assembled.
   const auto plan_empty_space = [&] {
     if (config.skip_empty && irregular) {
       grid.empty_radii = empty_space_radii(exec, grid.info, depths.refs_per_top_cell.data());
       clock.lap(BuildPhase::empty_space);
     }
+    release_buffer(depths.per_top_cell);
+    release_buffer(depths.refs_per_top_cell);
   };
   if constexpr (Exec::kDepthFirstOctrees) {
     if (depth_first_applies(grid.info)) {

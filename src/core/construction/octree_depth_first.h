@@ -49,21 +49,21 @@ static_assert(sizeof(ChunkCell) == 16);
 
 /// What one chunk of consecutive top cells (x-fastest order) built, with local indices: an inner
 /// entry at level L names a slot of the chunk's level L + 1, a leaf entry a cell counted from its
-/// own top cell's first, and a cell's first reference counts from its top cell's first.
+/// own top cell's first, and a cell's first reference counts from its top cell's first. Slot k of
+/// level 0 is the root of the chunk's k-th top cell.
 template <typename Exec>
 struct ChunkOctrees {
   std::vector<typename Exec::template Buffer<Entry>> levels;  ///< entries of each octree level
   typename Exec::template Buffer<ChunkCell> cells;
   typename Exec::template Buffer<std::uint32_t> refs;
-  /// Per top cell of the chunk, in order, the entries it added to each level (levels_per_top).
-  std::vector<std::uint32_t> entries_per_level;
 };
 
-/// The octrees of all top cells, chunk by chunk, and the per-top-cell totals the copy needs.
+/// The octrees of all top cells, chunk by chunk, and the per-top-cell totals the copy needs
+/// (executor buffers, so that the build's memory peak counts them).
 template <typename Exec>
 struct TopCellOctrees {
   std::vector<ChunkOctrees<Exec>> chunks;
-  std::vector<std::uint32_t> cells_per_top, refs_per_top;
+  typename Exec::template Buffer<std::uint32_t> cells_per_top, refs_per_top;
   std::uint32_t top_cells = 0, levels_per_top = 0, top_cells_per_chunk = 0;
 };
 
@@ -322,11 +322,11 @@ TopCellOctrees<Exec> build_top_cell_octrees(Exec& exec, const GridInfo& info,
   // Each top cell's triangles, ascending: the pairs come triangle-major and the sort is stable.
   exec.sort_pairs("octree top-cell lists", pairs.cell.data(), pairs.tri.data(), pairs.count,
                   std::max(1, int(std::bit_width(n))));
-  std::vector<std::uint32_t> first_tri(n);
+  auto first_tri = exec.template allocate<std::uint32_t>(n);
   exec.exclusive_scan("octree top-cell lists", refs_per_top, first_tri.data(), n);
   out.chunks.resize((n + per_chunk - 1) / per_chunk);
-  out.cells_per_top.resize(n);
-  out.refs_per_top.resize(n);
+  out.cells_per_top = exec.template allocate<std::uint32_t>(n);
+  out.refs_per_top = exec.template allocate<std::uint32_t>(n);
   if (depth_first_detail::pilot_predicts_budget_exceeded(
           exec, info, triangles, rule, pairs.cell.data(), pairs.tri.data(), first_tri.data(),
           refs_per_top, pairs.count, budget))
@@ -348,22 +348,14 @@ TopCellOctrees<Exec> build_top_cell_octrees(Exec& exec, const GridInfo& info,
     chunk.levels[0].resize(top_end - top_begin);
     chunk.cells = exec.template allocate<ChunkCell>(0);
     chunk.refs = exec.template allocate<std::uint32_t>(0);
-    chunk.entries_per_level.resize(std::size_t(top_end - top_begin) * levels);
     depth_first_detail::TopCellBuilder<Exec> builder(info, triangles, rule, chunk, totals);
-    std::vector<std::uint32_t> level_sizes(levels);
     for (std::uint32_t t = top_begin; t < top_end; ++t) {
-      for (std::uint32_t l = 0; l < levels; ++l)
-        level_sizes[l] = std::uint32_t(chunk.levels[l].size());
       const auto cells_before = std::uint32_t(chunk.cells.size());
       const auto refs_before = std::uint32_t(chunk.refs.size());
       builder.build(top_cell_corner(info, t), rule.depths[t], tri + first[t], refs_per_top[t],
                     t - top_begin);
       cells_per_top[t] = std::uint32_t(chunk.cells.size()) - cells_before;
       refs_out[t] = std::uint32_t(chunk.refs.size()) - refs_before;
-      std::uint32_t* added = chunk.entries_per_level.data() + std::size_t(t - top_begin) * levels;
-      for (std::uint32_t l = 0; l < levels; ++l)
-        added[l] = std::uint32_t(chunk.levels[l].size()) - level_sizes[l];
-      added[0] = 1;  // level 0 holds one slot per top cell, sized up front
     }
     // Grown by doubling, the buffers would hold up to twice what they use until they are
     // copied, beside the grid's arrays (Crown: 108 MiB, the octrees' share of the build's peak).
@@ -409,10 +401,11 @@ void assemble_top_cell_octrees(Exec& exec, TopCellOctrees<Exec>& octrees, GridAr
   });
   exec.sort_pairs("octree top-cell order", d_keys, d_order, n, std::max(1, 3 * morton_bits(info)));
   release_buffer(keys);
-  std::vector<std::uint32_t> cell_base(n), ref_base(n), ranked(n);
+  auto cell_base = exec.template allocate<std::uint32_t>(n);
+  auto ref_base = exec.template allocate<std::uint32_t>(n);
+  auto ranked = exec.template allocate<std::uint32_t>(n);
   std::uint32_t* d_ranked = ranked.data();
-  const auto base_in_morton_order = [&](const std::vector<std::uint32_t>& per_top,
-                                        std::vector<std::uint32_t>& base) {
+  const auto base_in_morton_order = [&](const auto& per_top, auto& base) {
     const std::uint32_t* counts = per_top.data();
     exec.for_each("octree top-cell order", n,
                   [=](std::size_t k) { d_ranked[k] = counts[d_order[k]]; });
@@ -428,28 +421,36 @@ void assemble_top_cell_octrees(Exec& exec, TopCellOctrees<Exec>& octrees, GridAr
   const std::uint64_t all_refs = base_in_morton_order(octrees.refs_per_top, ref_base);
   check_reference_count(all_refs, "octree references");
   const auto num_refs = std::uint32_t(all_refs);
+  // The bases hold the order now; its scratch goes before the copy makes the build's peak.
+  release_buffer(order);
+  release_buffer(ranked);
   ChunkOctrees<Exec>* chunks = octrees.chunks.data();
   const std::uint32_t per_chunk = octrees.top_cells_per_chunk;
   const std::uint32_t *d_cell_base = cell_base.data(), *d_ref_base = ref_base.data();
-  const std::uint32_t *cells_per_top = octrees.cells_per_top.data(),
-                      *refs_per_top = octrees.refs_per_top.data();
-  // Calls visit(t, l, slot, entry) for every entry of chunk c, top cell after top cell and
-  // level after level: `slot` is the entry's index in the grid's entries (level l's offset
-  // plus its place there).
+  const std::uint32_t* cells_per_top = octrees.cells_per_top.data();
+  const std::uint32_t* refs_per_top = octrees.refs_per_top.data();
+  // Calls visit(t, l, slot, entry) for every entry of chunk c, top cell after top cell, each
+  // top cell's octree depth first from its root: `slot` is the entry's index in the grid's
+  // entries (level l's offset, the chunk's base there, and its place in the chunk's level).
   const auto for_each_entry = [&](std::size_t c, const auto& visit) {
     const ChunkOctrees<Exec>& chunk = chunks[c];
     const auto top_begin = std::uint32_t(c) * per_chunk;
     const std::uint32_t top_end = std::min(n, top_begin + per_chunk);
     const std::uint64_t* chunk_base = chunk_level_base.data() + c * levels;
-    std::vector<std::uint32_t> at(levels, 0);
+    struct Pending {
+      std::uint32_t level, index;
+    };
+    std::vector<Pending> pending;  // at most 7 siblings per level on the path, and the next
     for (std::uint32_t t = top_begin; t < top_end; ++t) {
-      const std::uint32_t* added =
-          chunk.entries_per_level.data() + std::size_t(t - top_begin) * levels;
-      for (std::uint32_t l = 0; l < levels; ++l) {
-        const std::uint64_t out = level_offsets[l] + chunk_base[l];
-        for (std::uint32_t k = at[l]; k < at[l] + added[l]; ++k)
-          visit(t, l, out + k, chunk.levels[l][k]);
-        at[l] += added[l];
+      pending.push_back({0, t - top_begin});
+      while (!pending.empty()) {
+        const Pending at = pending.back();
+        pending.pop_back();
+        const Entry e = chunk.levels[at.level][at.index];
+        visit(t, at.level, level_offsets[at.level] + chunk_base[at.level] + at.index, e);
+        if (e.log_dim() != 0)
+          for (std::uint32_t child = 8; child-- > 0;)
+            pending.push_back({at.level + 1, e.index() + child});
       }
     }
   };
@@ -463,14 +464,21 @@ void assemble_top_cell_octrees(Exec& exec, TopCellOctrees<Exec>& octrees, GridAr
     ChunkOctrees<Exec>& chunk = chunks[c];
     const auto top_begin = std::uint32_t(c) * per_chunk;
     const std::uint32_t top_end = std::min(n, top_begin + per_chunk);
-    std::uint32_t ref_at = 0;
+    std::uint32_t ref_at = 0, cell_at = 0;
     for (std::uint32_t t = top_begin; t < top_end; ++t) {
       std::copy(chunk.refs.begin() + ref_at, chunk.refs.begin() + (ref_at + refs_per_top[t]),
                 refs + d_ref_base[t]);
       ref_at += refs_per_top[t];
+      // The cells' first references become the grid's, so that the reference bases go before
+      // the cells are made.
+      for (std::uint32_t k = cell_at; k < cell_at + cells_per_top[t]; ++k)
+        chunk.cells[k].begin += d_ref_base[t];
+      cell_at += cells_per_top[t];
     }
     release_buffer(chunk.refs);
   });
+  release_buffer(ref_base);
+  release_buffer(octrees.refs_per_top);
   grid.cells = exec.template allocate<Cell>(num_cells);
   Cell* cells = grid.cells.data();
   exec.for_each("octree copy", chunk_count, [&, chunks](std::size_t c) {
@@ -482,18 +490,21 @@ void assemble_top_cell_octrees(Exec& exec, TopCellOctrees<Exec>& octrees, GridAr
       for (; current != t; ++current)
         cell_at += cells_per_top[current];
       if (e.log_dim() != 0) return;
-      const std::uint32_t i = e.index();
-      const ChunkCell* from = chunk.cells.data() + cell_at;
-      const ChunkCell& leaf = from[i];
-      const std::uint32_t end = i + 1 < cells_per_top[t] ? from[i + 1].begin : refs_per_top[t];
+      const ChunkCell& leaf = chunk.cells[cell_at + e.index()];
       const std::int32_t size = std::int32_t(1) << (info.shift - std::int32_t(l));
-      const std::uint32_t ref_base_t = d_ref_base[t];
-      cells[d_cell_base[t] + i] = {{leaf.lo[0], leaf.lo[1], leaf.lo[2]},
-                                   ref_base_t + leaf.begin,
-                                   {leaf.lo[0] + size, leaf.lo[1] + size, leaf.lo[2] + size},
-                                   ref_base_t + end};
+      cells[d_cell_base[t] + e.index()] = {
+          {leaf.lo[0], leaf.lo[1], leaf.lo[2]},
+          leaf.begin,
+          {leaf.lo[0] + size, leaf.lo[1] + size, leaf.lo[2] + size},
+          0};  // set below
     });
     release_buffer(chunk.cells);
+  });
+  release_buffer(octrees.cells_per_top);
+  // The lists follow the cells without gaps (the same Morton order of top cells, each top cell's
+  // cells in its chunk's order), so each ends where the next begins.
+  exec.for_each("octree cell ends", num_cells, [=](std::size_t k) {
+    cells[k].end = k + 1 < num_cells ? cells[k + 1].begin : num_refs;
   });
   grid.entries = exec.template allocate<Entry>(num_entries);
   Entry* entries = grid.entries.data();
