@@ -39,11 +39,41 @@ IRGRID_HD inline bool heads_pair(const std::uint8_t* parity, const std::uint32_t
   return parity[i] == 0 && next[i] != kNoCell;
 }
 
+/// The bits of a cell's pair byte in a rebuilding sweep: its chain parity (chain_parity; set:
+/// absorbed by its predecessor) and, set by mark_pair_heads, whether it heads a pair.
+inline constexpr std::uint8_t kAbsorbedBit = 1, kHeadsPairBit = 2;
+
+/// Whether cell i heads a pair of a rebuilding sweep (mark_pair_heads).
+IRGRID_HD inline bool marked_head(const std::uint8_t* pair_bits, std::size_t i) {
+  return (pair_bits[i] & kHeadsPairBit) != 0;
+}
+
+/// The cell a marked head absorbs, kept in its upper corner (mark_pair_heads).
+IRGRID_HD inline std::uint32_t marked_partner(const Cell& head) {
+  return std::uint32_t(head.hi[0]);
+}
+
 /// Whether cell i leaves the array in a rebuilding sweep: absorbed by its predecessor now, or
 /// absorbed in place earlier (`absorbed_by`, see apply_merges_in_place; nullptr: none).
-IRGRID_HD inline bool leaves_the_array(const std::uint8_t* parity, const std::uint32_t* absorbed_by,
-                                       std::size_t i) {
-  return parity[i] != 0 || (absorbed_by && absorbed_by[i] != kNoCell);
+IRGRID_HD inline bool leaves_the_array(const std::uint8_t* pair_bits,
+                                       const std::uint32_t* absorbed_by, std::size_t i) {
+  return (pair_bits[i] & kAbsorbedBit) != 0 || (absorbed_by && absorbed_by[i] != kNoCell);
+}
+
+/// Marks the heads of the sweep's pairs in `pair_bits` (the chain parity, kHeadsPairBit added)
+/// and writes each head's partner over its upper corner, so that rebuilding sweeps run without
+/// the proposals' array of one cell id per cell (at their first sweep, the build's peak): a
+/// merged cell takes its whole upper corner from the cell it absorbs (they share their
+/// cross-section), so the head's own corner is not read again, and no other cell reads it.
+template <typename Exec>
+void mark_pair_heads(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
+                     std::uint8_t* pair_bits) {
+  Cell* cells = grid.cells.data();
+  exec.for_each("merge mark heads", grid.info.num_cells, [=] IRGRID_HD(std::size_t i) {
+    if (!heads_pair(pair_bits, next, i)) return;
+    cells[i].hi[0] = std::int32_t(next[i]);
+    pair_bits[i] = kHeadsPairBit;
+  });
 }
 
 /// Wakes, per axis, the owner of the voxel below merged cell m's lower corner: a new cell may
@@ -73,7 +103,8 @@ void make_quiet_bits(Exec& exec, typename Exec::template Buffer<std::uint32_t>& 
   exec.for_each("merge quiet init", n, [=] IRGRID_HD(std::size_t i) { d_quiet[i] = 0; });
 }
 
-/// Turns the resolved pairs into new cells and references, scans giving the new cell ids and
+/// Turns the resolved pairs (`pair_bits` and the partners of mark_pair_heads) into new cells and
+/// references, scans giving the new cell ids and
 /// reference offsets, and points every leaf of the voxel map at its new cell. `quiet` (one entry
 /// per cell, see propose_merges; empty: all zero, and it stays empty) is carried over to the new
 /// cells: cleared for merged cells and, when `track` is set, for the cells below a merged cell's
@@ -81,8 +112,8 @@ void make_quiet_bits(Exec& exec, typename Exec::template Buffer<std::uint32_t>& 
 /// apply_merges_in_place) are dropped, their map leaves pointed at the cell that absorbed them,
 /// and `forward` is emptied. `union_size` is overwritten with the new lists' offsets.
 template <typename Exec>
-void apply_merges(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
-                  std::uint32_t* union_size, const std::uint8_t* parity,
+void apply_merges(Exec& exec, GridArrays<Exec>& grid, std::uint32_t* union_size,
+                  const std::uint8_t* pair_bits,
                   typename Exec::template Buffer<std::uint32_t>& quiet,
                   typename Exec::template Buffer<std::uint32_t>& forward, bool track) {
   const std::uint32_t n = grid.info.num_cells;
@@ -95,8 +126,8 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
   // Odd positions are absorbed; even ones that proposed merge forward.
   const std::uint32_t* absorbed_by = forward.size() != 0 ? forward.data() : nullptr;
   exec.for_each("merge counts", n, [=] IRGRID_HD(std::size_t i) {
-    const bool absorbed = leaves_the_array(parity, absorbed_by, i),
-               merges = !absorbed && next[i] != kNoCell;
+    const bool absorbed = leaves_the_array(pair_bits, absorbed_by, i),
+               merges = marked_head(pair_bits, i);
     new_begin[i] = absorbed ? 0 : (merges ? new_begin[i] : cells[i].end - cells[i].begin);
   });
   const std::uint32_t num_refs = exec.exclusive_scan("merge ref offsets", new_begin, new_begin, n);
@@ -111,11 +142,11 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
   std::uint32_t* out_refs = merged_refs.data();
   exec.for_each("merge write lists", n, [=] IRGRID_HD(std::size_t i) {
     // Written by its predecessor, or absorbed in place earlier.
-    if (leaves_the_array(parity, absorbed_by, i)) return;
+    if (leaves_the_array(pair_bits, absorbed_by, i)) return;
     const Cell a = cells[i];
     std::uint32_t* out = out_refs + new_begin[i];
-    if (next[i] != kNoCell) {
-      const Cell b = cells[next[i]];
+    if (marked_head(pair_bits, i)) {
+      const Cell b = cells[marked_partner(a)];
       write_sorted_union(refs + a.begin, a.end - a.begin, refs + b.begin, b.end - b.begin, out);
     } else {
       copy_list(refs + a.begin, a.end - a.begin, out);
@@ -125,7 +156,7 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
   auto new_id_buffer = exec.template allocate<std::uint32_t>(n);
   std::uint32_t* new_id = new_id_buffer.data();
   exec.for_each("merge cell ids", n, [=] IRGRID_HD(std::size_t i) {
-    new_id[i] = leaves_the_array(parity, absorbed_by, i) ? 0 : 1;
+    new_id[i] = leaves_the_array(pair_bits, absorbed_by, i) ? 0 : 1;
   });
   // At most the n cells there were.
   const std::uint32_t num_cells = exec.exclusive_scan("merge cell ids", new_id, new_id, n);
@@ -147,24 +178,26 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
   const std::uint32_t* old_quiet = has_quiet ? quiet.data() : nullptr;
   std::uint32_t* new_quiet = !has_quiet ? nullptr : in_place ? quiet.data() : merged_quiet.data();
   exec.for_each("merge write cells", n, [=] IRGRID_HD(std::size_t i) {
-    if (leaves_the_array(parity, absorbed_by, i)) return;
+    if (leaves_the_array(pair_bits, absorbed_by, i)) return;
     Cell merged = cells[i];
     const std::uint32_t id = new_id[i];
-    if (next[i] != kNoCell) {
-      const Cell b = cells[next[i]];
-      remap[next[i]] = id;  // the absorbed cell's only writer: it has one predecessor
+    const bool head = marked_head(pair_bits, i);
+    if (head) {
+      const std::uint32_t partner = marked_partner(merged);
+      const Cell b = cells[partner];
+      remap[partner] = id;  // the absorbed cell's only writer: it has one predecessor
       for (int axis = 0; axis < 3; ++axis)
         merged.hi[axis] = b.hi[axis];
     }
     merged.begin = new_begin[i];
     const std::size_t at = Exec::kCompactsInPlace ? i : id;
     out_cells[at] = merged;
-    if (new_quiet) new_quiet[at] = next[i] != kNoCell ? 0u : old_quiet[i];
+    if (new_quiet) new_quiet[at] = head ? 0u : old_quiet[i];
   });
   if constexpr (in_place) {
     exec.compact_in_place(
         "merge compact cells", n,
-        [=](std::size_t i) { return !leaves_the_array(parity, absorbed_by, i); },
+        [=](std::size_t i) { return !leaves_the_array(pair_bits, absorbed_by, i); },
         [=](std::size_t from, std::size_t to) {
           out_cells[to] = out_cells[from];
           if (new_quiet) new_quiet[to] = new_quiet[from];
@@ -185,7 +218,7 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
   const GridInfo info = grid.info;
   if (track)
     exec.for_each("merge wake neighbours", n, [=] IRGRID_HD(std::size_t i) {
-      if (heads_pair(parity, next, i))
+      if (marked_head(pair_bits, i))
         wake_cells_below(info, entries, out_cells[new_id[i]], new_quiet, nullptr);
     });
   if constexpr (!in_place) {
@@ -205,21 +238,28 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
 /// no partner (see absorbed_cell) and waking resolves them through `forward`. The next
 /// apply_merges drops absorbed cells and points their leaves at their absorbers, so the grid
 /// ends as if every sweep had rebuilt it. Returns the number of pairs merged, or 0 without
-/// changing anything when the lists would pass the limit on references.
+/// changing anything when the lists would pass the limit on references; `union_size` is
+/// overwritten when it merges.
 template <typename Exec>
 std::uint32_t apply_merges_in_place(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
-                                    const std::uint32_t* union_size, const std::uint8_t* parity,
+                                    std::uint32_t* union_size, const std::uint8_t* parity,
                                     std::uint32_t* quiet,
                                     typename Exec::template Buffer<std::uint32_t>& forward,
                                     bool track) {
   const std::uint32_t n = grid.info.num_cells, used = grid.info.num_refs;
-  auto offset_buffer = exec.template allocate<std::uint32_t>(n);
-  std::uint32_t* offset = offset_buffer.data();
-  exec.for_each("merge in place offsets", n, [=] IRGRID_HD(std::size_t i) {
-    offset[i] = heads_pair(parity, next, i) ? union_size[i] : 0;
-  });
-  const std::uint64_t added = wide_sum(exec, "merge in place offsets", offset, n);
+  const std::uint64_t added = exec.transform_reduce(
+      "merge in place offsets", n, std::uint64_t(0),
+      [] IRGRID_HD(std::uint64_t x, std::uint64_t y) { return x + y; },
+      [=] IRGRID_HD(std::size_t i) {
+        return std::uint64_t(heads_pair(parity, next, i) ? union_size[i] : 0);
+      });
   if (used + added > kMaxEntryTarget) return 0;
+  // Each head's list offset goes where its union's size was (no second array of n beside the
+  // grown references).
+  std::uint32_t* offset = union_size;
+  exec.for_each("merge in place offsets", n, [=] IRGRID_HD(std::size_t i) {
+    if (!heads_pair(parity, next, i)) offset[i] = 0;
+  });
   exec.exclusive_scan("merge in place offsets", offset, offset, n);
   if (used + added > grid.refs.size()) {
     // Room for this sweep's lists and as many again, so that later sweeps rarely grow it.
@@ -287,7 +327,7 @@ void merge_sweep(Exec& exec, GridArrays<Exec>& grid, int axis, float cost_ratio,
       propose_merges(exec, grid, axis, cost_ratio, empty_aspect, next.data(), prev.data(),
                      union_size.data(), quiet.size() != 0 ? quiet.data() : nullptr, track);
   if (proposals == 0) return;
-  const auto parity = chain_parity(exec, next.data(), prev.data(), n);
+  auto parity = chain_parity(exec, next.data(), prev.data(), n);
   release_buffer(prev);  // back to the pool before the merges ask for their arrays of n
   if (double(proposals) < double(in_place_below) * double(n)) {
     make_quiet_bits(exec, quiet, n);  // absorbed cells are marked quiet
@@ -296,7 +336,9 @@ void merge_sweep(Exec& exec, GridArrays<Exec>& grid, int axis, float cost_ratio,
     absorbed += merged;
     if (merged > 0) return;
   }
-  apply_merges(exec, grid, next.data(), union_size.data(), parity.data(), quiet, forward, track);
+  mark_pair_heads(exec, grid, next.data(), parity.data());
+  release_buffer(next);
+  apply_merges(exec, grid, union_size.data(), parity.data(), quiet, forward, track);
   absorbed = 0;
 }
 
@@ -307,16 +349,11 @@ void drop_absorbed_cells(Exec& exec, GridArrays<Exec>& grid,
                          typename Exec::template Buffer<std::uint32_t>& forward) {
   if (forward.size() == 0) return;
   const std::uint32_t n = grid.info.num_cells;
-  auto next = exec.template allocate<std::uint32_t>(n);
   auto offsets = exec.template allocate<std::uint32_t>(n);
-  auto parity = exec.template allocate<std::uint8_t>(n);
-  std::uint32_t* d_next = next.data();
-  std::uint8_t* d_parity = parity.data();
-  exec.for_each("merge drop absorbed", n, [=] IRGRID_HD(std::size_t i) {
-    d_next[i] = kNoCell;
-    d_parity[i] = 0;
-  });
-  apply_merges(exec, grid, d_next, offsets.data(), d_parity, quiet, forward, false);
+  auto pair_bits = exec.template allocate<std::uint8_t>(n);  // no pairs
+  std::uint8_t* d_pair_bits = pair_bits.data();
+  exec.for_each("merge drop absorbed", n, [=] IRGRID_HD(std::size_t i) { d_pair_bits[i] = 0; });
+  apply_merges(exec, grid, offsets.data(), d_pair_bits, quiet, forward, false);
 }
 
 }  // namespace merge_detail
@@ -365,7 +402,9 @@ void merge_cells(Exec& exec, GridArrays<Exec>& grid, float alpha, float cost_rat
     if (after == before || double(after) >= double(alpha) * double(before)) break;
   }
   merge_detail::drop_absorbed_cells(exec, grid, quiet, forward);
-  // Compacted in place, the cells still hold the first sweep's array: down to their size.
+  release_buffer(quiet);
+  // Compacted in place, the cells still hold the first sweep's array: down to their size (a
+  // copy, beside that array: the merge phase's peak on the hairball).
   if constexpr (Exec::kCompactsInPlace) grid.cells.shrink_to_fit();
 }
 
