@@ -556,6 +556,27 @@ TEST(GridLimits, DepthFirstOctreesProjectedPastTheBudgetStopEarly) {
   EXPECT_FALSE(depth_first_detail::projection_passes_budget(100, 1, 8, 1000));
 }
 
+// The depth-first assembly writes narrow cells where the virtual grid fits 16 bits per axis
+// (narrow_cell.h), full cells otherwise: both forms must hold the same cells.
+TEST(GridBuild, NarrowAndFullCellsOfTheDepthFirstAssemblyAreTheSame) {
+  for (const char* spec : {"builtin:teapot-stadium:3000", "builtin:hairball:5000"}) {
+    SCOPED_TRACE(spec);
+    DepthFirstInputs in(spec, testing::initial_grid_config());
+    ASSERT_TRUE(fits_compact_cells(in.grid.info));
+    GridArrays<CpuExecutor> narrow = in.grid, full = in.grid;
+    auto octrees = in.octrees(std::uint64_t(1) << 60);
+    assemble_top_cell_octrees(in.exec, octrees, narrow);
+    octrees = in.octrees(std::uint64_t(1) << 60);
+    assemble_top_cell_octrees(in.exec, octrees, full, false);
+    EXPECT_EQ(narrow.cells.size(), 0u);
+    ASSERT_EQ(narrow.narrow_cells.size(), narrow.info.num_cells);
+    EXPECT_EQ(full.narrow_cells.size(), 0u);
+    widen_cells(in.exec, narrow);
+    EXPECT_EQ(narrow.narrow_cells.capacity(), 0u) << "released";
+    testing::expect_same_grid(narrow, full);
+  }
+}
+
 TEST(GridLimits, ALevelStopsItsTestsEarlyWithTheSameOctrees) {
   // The level-by-level build stops a level's triangle/child tests once the splits that must
   // happen pass the budget; the octrees must be those of a level that ran all its tests.

@@ -285,6 +285,7 @@ Grid build_octree_form_grid(const Scene& scene) {
   PhaseTimes phases_ms;
   PhaseClock clock(exec, phases_ms);
   build_initial_grid(exec, grid, BuildConfig{}, clock);
+  widen_cells(exec, grid);
   return grid;
 }
 
@@ -329,6 +330,54 @@ TEST_P(GridMerge, MergingTheOctreeFormMapThenCompactingGivesTheSameCells) {
   }
 }
 
+/// `grid` with its cells in the narrow form only (narrow_cell.h).
+Grid narrowed(const Grid& grid) {
+  CpuExecutor exec;
+  Grid narrow = grid;
+  narrow.narrow_cells = exec.allocate<NarrowCell>(grid.info.num_cells);
+  for (std::uint32_t i = 0; i < grid.info.num_cells; ++i) {
+    const Cell& cell = grid.cells[i];
+    NarrowCell& to = narrow.narrow_cells[i];
+    for (int a = 0; a < 3; ++a) {
+      to.lo[a] = std::uint16_t(cell.lo[a]);
+      to.hi[a] = std::uint16_t(cell.hi[a]);
+    }
+    to.begin = cell.begin;
+    to.end = cell.end;
+  }
+  release_buffer(narrow.cells);
+  return narrow;
+}
+
+/// Merges `scene`'s octree-form grid in both cell forms and expects the same grid, in-place
+/// sweeps included.
+void expect_narrow_cells_merge_as_full_cells_do(const Scene& scene, std::uint32_t min_cells = 0) {
+  CpuExecutor exec;
+  const Grid initial = build_octree_form_grid(scene);
+  ASSERT_TRUE(fits_compact_cells(initial.info));
+  ASSERT_GE(initial.info.num_cells, min_cells);
+  for (const float in_place_below : {0.f, kMergeInPlaceBelow, 1.f}) {
+    SCOPED_TRACE(in_place_below);
+    Grid full = initial, narrow = narrowed(initial);
+    merge_cells(exec, full, kAlpha, kCostRatio, kEmptyAspect, in_place_below);
+    merge_cells(exec, narrow, kAlpha, kCostRatio, kEmptyAspect, in_place_below);
+    ASSERT_EQ(narrow.narrow_cells.size(), narrow.info.num_cells) << "merged as narrow cells";
+    widen_cells(exec, narrow);
+    EXPECT_TRUE(same_grid(narrow, full));
+  }
+}
+
+// Merging works on the depth-first assembly's narrow cells (narrow_cell.h) or on full cells, with
+// the same result.
+TEST_P(GridMerge, NarrowCellsMergeAsFullCellsDo) {
+  expect_narrow_cells_merge_as_full_cells_do(merge_case(GetParam()).scene);
+}
+
+// A narrow cell keeps its partner's id in both halves of its upper corner: ids past 16 bits.
+TEST(GridMergeNarrow, PartnersPast65535MergeAsFullCellsDo) {
+  expect_narrow_cells_merge_as_full_cells_do(load_scene("builtin:sphere:60000"), 1u << 17);
+}
+
 // Merging skips the proposals of cells it knows to be quiet (merge.h). At alpha = 1 it runs
 // until a round merges nothing, so no cell may then have a merge left to propose along any axis.
 TEST_P(GridMerge, AtAlphaOneNoCellHasAMergeLeft) {
@@ -355,9 +404,9 @@ TEST_P(GridMerge, BatchedProposalsEqualSingleCellProposals) {
   for (int axis = 0; axis < 3; ++axis) {
     for (std::uint32_t i = 0; i < n; ++i)
       quiet[i] = i % 7 == 3 ? 1u << axis : 0u;
-    const std::uint32_t proposals =
-        merge_detail::propose_merges(exec, grid, axis, kCostRatio, kEmptyAspect, next.data(),
-                                     prev.data(), union_size.data(), quiet.data(), true);
+    const std::uint32_t proposals = merge_detail::propose_merges(
+        exec, grid, grid.cells.data(), axis, kCostRatio, kEmptyAspect, next.data(), prev.data(),
+        union_size.data(), quiet.data(), true);
     std::uint32_t expected_proposals = 0;
     for (std::uint32_t i = 0; i < n; ++i) {
       std::uint32_t size = 0;

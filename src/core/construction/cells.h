@@ -11,7 +11,9 @@
 #include <vector>
 
 #include "core/construction/cell_order.h"
+#include "core/construction/narrow_cell.h"
 #include "core/construction/octree_levels.h"
+#include "core/release_buffer.h"
 
 namespace irgrid {
 
@@ -21,6 +23,9 @@ struct GridArrays {
   GridInfo info{};
   typename Exec::template Buffer<Entry> entries;
   typename Exec::template Buffer<Cell> cells;
+  /// The cells in 20 bytes from the depth-first assembly until they are merged (narrow_cell.h);
+  /// `cells` is empty meanwhile, and this empty otherwise. widen_cells ends it.
+  typename Exec::template Buffer<NarrowCell> narrow_cells;
   typename Exec::template Buffer<std::uint32_t> refs;
   typename Exec::template Buffer<TriangleVertices> triangles;
   /// Empty radii of each top cell, one per octant (core/construction/empty_space.h); empty when the
@@ -36,6 +41,18 @@ struct GridArrays {
   std::uint64_t budget_bytes = 0;
   bool budget_limited = false;
 };
+
+/// Moves narrow cells (if any) into grid.cells in the wide form.
+template <typename Exec>
+void widen_cells(Exec& exec, GridArrays<Exec>& grid) {
+  if (grid.narrow_cells.size() == 0) return;
+  const std::uint32_t n = grid.info.num_cells;
+  grid.cells = exec.template allocate<Cell>(n);
+  Cell* wide = grid.cells.data();
+  const NarrowCell* narrow = grid.narrow_cells.data();
+  exec.for_each("widen cells", n, [=] IRGRID_HD(std::size_t i) { wide[i] = widened(narrow[i]); });
+  release_buffer(grid.narrow_cells);
+}
 
 /// Concatenates per-level buffers into one of `total` elements.
 template <typename Exec, typename T>

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdint>
 #include <string>
+#include <type_traits>
 #include <utility>
 
 #include "core/construction/merge_pairs.h"
@@ -20,10 +21,15 @@ namespace irgrid {
 
 namespace merge_detail {
 
-/// A box no proposal can align with: absorbed cells get it, so a lookup that lands on one of
-/// their map leaves finds no partner, as it would find none in the cell that absorbed it.
-IRGRID_HD inline Cell absorbed_cell() {
-  return {{-1, -1, -1}, 0, {-1, -1, -1}, 0};
+/// Gives `c` a box no proposal can align with: absorbed cells get it, so a lookup that lands on
+/// one of their map leaves finds no partner, as it would find none in the cell that absorbed it.
+/// (A narrow cell's corners all 0xffff: only a cell on the grid's upper face, which proposes
+/// nothing, has that upper coordinate.)
+IRGRID_HD inline void make_absorbed(Cell& c) {
+  c = {{-1, -1, -1}, 0, {-1, -1, -1}, 0};
+}
+IRGRID_HD inline void make_absorbed(NarrowCell& c) {
+  c = {{0xffff, 0xffff, 0xffff}, {0xffff, 0xffff, 0xffff}, 0, 0};
 }
 
 /// The cell that absorbed `c` in place, following earlier absorptions; `c` itself if it is live.
@@ -49,8 +55,18 @@ IRGRID_HD inline bool marked_head(const std::uint8_t* pair_bits, std::size_t i) 
 }
 
 /// The cell a marked head absorbs, kept in its upper corner (mark_pair_heads).
+IRGRID_HD inline void keep_partner(Cell& head, std::uint32_t partner) {
+  head.hi[0] = std::int32_t(partner);
+}
+IRGRID_HD inline void keep_partner(NarrowCell& head, std::uint32_t partner) {
+  head.hi[0] = std::uint16_t(partner);
+  head.hi[1] = std::uint16_t(partner >> 16);
+}
 IRGRID_HD inline std::uint32_t marked_partner(const Cell& head) {
   return std::uint32_t(head.hi[0]);
+}
+IRGRID_HD inline std::uint32_t marked_partner(const NarrowCell& head) {
+  return std::uint32_t(head.hi[0]) | std::uint32_t(head.hi[1]) << 16;
 }
 
 /// Whether cell i leaves the array in a rebuilding sweep: absorbed by its predecessor now, or
@@ -65,13 +81,12 @@ IRGRID_HD inline bool leaves_the_array(const std::uint8_t* pair_bits,
 /// the proposals' array of one cell id per cell (at their first sweep, the build's peak): a
 /// merged cell takes its whole upper corner from the cell it absorbs (they share their
 /// cross-section), so the head's own corner is not read again, and no other cell reads it.
-template <typename Exec>
-void mark_pair_heads(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
+template <typename Exec, typename CellT>
+void mark_pair_heads(Exec& exec, std::uint32_t n, CellT* cells, const std::uint32_t* next,
                      std::uint8_t* pair_bits) {
-  Cell* cells = grid.cells.data();
-  exec.for_each("merge mark heads", grid.info.num_cells, [=] IRGRID_HD(std::size_t i) {
+  exec.for_each("merge mark heads", n, [=] IRGRID_HD(std::size_t i) {
     if (!heads_pair(pair_bits, next, i)) return;
-    cells[i].hi[0] = std::int32_t(next[i]);
+    keep_partner(cells[i], next[i]);
     pair_bits[i] = kHeadsPairBit;
   });
 }
@@ -79,7 +94,8 @@ void mark_pair_heads(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* ne
 /// Wakes, per axis, the owner of the voxel below merged cell m's lower corner: a new cell may
 /// be its partner now (merge_pairs.h). `forward` resolves cells absorbed in place (nullptr:
 /// the map names live cells only).
-IRGRID_HD inline void wake_cells_below(const GridInfo& info, const Entry* entries, const Cell& m,
+template <typename CellT>
+IRGRID_HD inline void wake_cells_below(const GridInfo& info, const Entry* entries, const CellT& m,
                                        std::uint32_t* quiet, const std::uint32_t* forward) {
   for (int axis = 0; axis < 3; ++axis) {
     if (m.lo[axis] == 0) continue;
@@ -111,13 +127,15 @@ void make_quiet_bits(Exec& exec, typename Exec::template Buffer<std::uint32_t>& 
 /// lower corner. Cells absorbed by earlier in-place sweeps (`forward`, see
 /// apply_merges_in_place) are dropped, their map leaves pointed at the cell that absorbed them,
 /// and `forward` is emptied. `union_size` is overwritten with the new lists' offsets.
-template <typename Exec>
-void apply_merges(Exec& exec, GridArrays<Exec>& grid, std::uint32_t* union_size,
-                  const std::uint8_t* pair_bits,
+/// `cell_buffer`: the grid's cells, in either form (grid.cells or grid.narrow_cells).
+template <typename Exec, typename CellBuffer>
+void apply_merges(Exec& exec, GridArrays<Exec>& grid, CellBuffer& cell_buffer,
+                  std::uint32_t* union_size, const std::uint8_t* pair_bits,
                   typename Exec::template Buffer<std::uint32_t>& quiet,
                   typename Exec::template Buffer<std::uint32_t>& forward, bool track) {
+  using CellT = std::remove_cv_t<std::remove_pointer_t<decltype(cell_buffer.data())>>;
   const std::uint32_t n = grid.info.num_cells;
-  const Cell* cells = grid.cells.data();
+  const CellT* cells = cell_buffer.data();
   const std::uint32_t* refs = grid.refs.data();
   // A cell's new list offset goes where its union's size was, and the new ids are counted once
   // the old references went back: the first sweeps make the build's peak. The new cells take
@@ -143,10 +161,10 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, std::uint32_t* union_size,
   exec.for_each("merge write lists", n, [=] IRGRID_HD(std::size_t i) {
     // Written by its predecessor, or absorbed in place earlier.
     if (leaves_the_array(pair_bits, absorbed_by, i)) return;
-    const Cell a = cells[i];
+    const CellT a = cells[i];
     std::uint32_t* out = out_refs + new_begin[i];
     if (marked_head(pair_bits, i)) {
-      const Cell b = cells[marked_partner(a)];
+      const CellT b = cells[marked_partner(a)];
       write_sorted_union(refs + a.begin, a.end - a.begin, refs + b.begin, b.end - b.begin, out);
     } else {
       copy_list(refs + a.begin, a.end - a.begin, out);
@@ -168,23 +186,23 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, std::uint32_t* union_size,
   // it absorbs, which no one writes, so the first pass needs no second array.
   constexpr bool in_place = Exec::kCompactsInPlace;
   const bool has_quiet = quiet.size() != 0;
-  typename Exec::template Buffer<Cell> merged_cells;
+  typename Exec::template Buffer<CellT> merged_cells;
   typename Exec::template Buffer<std::uint32_t> merged_quiet;
   if constexpr (!in_place) {
-    merged_cells = exec.template allocate<Cell>(num_cells);
+    merged_cells = exec.template allocate<CellT>(num_cells);
     if (has_quiet) merged_quiet = exec.template allocate<std::uint32_t>(num_cells);
   }
-  Cell* out_cells = in_place ? grid.cells.data() : merged_cells.data();
+  CellT* out_cells = in_place ? cell_buffer.data() : merged_cells.data();
   const std::uint32_t* old_quiet = has_quiet ? quiet.data() : nullptr;
   std::uint32_t* new_quiet = !has_quiet ? nullptr : in_place ? quiet.data() : merged_quiet.data();
   exec.for_each("merge write cells", n, [=] IRGRID_HD(std::size_t i) {
     if (leaves_the_array(pair_bits, absorbed_by, i)) return;
-    Cell merged = cells[i];
+    CellT merged = cells[i];
     const std::uint32_t id = new_id[i];
     const bool head = marked_head(pair_bits, i);
     if (head) {
       const std::uint32_t partner = marked_partner(merged);
-      const Cell b = cells[partner];
+      const CellT b = cells[partner];
       remap[partner] = id;  // the absorbed cell's only writer: it has one predecessor
       for (int axis = 0; axis < 3; ++axis)
         merged.hi[axis] = b.hi[axis];
@@ -202,7 +220,7 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, std::uint32_t* union_size,
           out_cells[to] = out_cells[from];
           if (new_quiet) new_quiet[to] = new_quiet[from];
         });
-    grid.cells.resize(num_cells);
+    cell_buffer.resize(num_cells);
     if (has_quiet) quiet.resize(num_cells);
   }
   // A union's size is exact (proposes_merge), so each list ends where the next cell's begins.
@@ -223,7 +241,7 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, std::uint32_t* union_size,
     });
   if constexpr (!in_place) {
     if (has_quiet) quiet = std::move(merged_quiet);
-    grid.cells = std::move(merged_cells);
+    cell_buffer = std::move(merged_cells);
   }
   release_buffer(forward);
   grid.info.num_cells = num_cells;
@@ -234,16 +252,16 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, std::uint32_t* union_size,
 /// (apply_merges) would cost more than the merges. The lower cell of a pair takes the merged box
 /// and a list written past the references in use (the buffer grows when needed); the upper
 /// cell stays in the array, absorbed: forward names its absorber, it proposes nothing (all quiet
-/// bits) and holds absorbed_cell(). Its map leaves still name it, so lookups that land there find
-/// no partner (see absorbed_cell) and waking resolves them through `forward`. The next
+/// bits) and gets make_absorbed. Its map leaves still name it, so lookups that land there find
+/// no partner (see make_absorbed) and waking resolves them through `forward`. The next
 /// apply_merges drops absorbed cells and points their leaves at their absorbers, so the grid
 /// ends as if every sweep had rebuilt it. Returns the number of pairs merged, or 0 without
 /// changing anything when the lists would pass the limit on references; `union_size` is
-/// overwritten when it merges.
-template <typename Exec>
-std::uint32_t apply_merges_in_place(Exec& exec, GridArrays<Exec>& grid, const std::uint32_t* next,
-                                    std::uint32_t* union_size, const std::uint8_t* parity,
-                                    std::uint32_t* quiet,
+/// overwritten when it merges. `cells`: the grid's, in either form.
+template <typename Exec, typename CellT>
+std::uint32_t apply_merges_in_place(Exec& exec, GridArrays<Exec>& grid, CellT* cells,
+                                    const std::uint32_t* next, std::uint32_t* union_size,
+                                    const std::uint8_t* parity, std::uint32_t* quiet,
                                     typename Exec::template Buffer<std::uint32_t>& forward,
                                     bool track) {
   const std::uint32_t n = grid.info.num_cells, used = grid.info.num_refs;
@@ -277,21 +295,20 @@ std::uint32_t apply_merges_in_place(Exec& exec, GridArrays<Exec>& grid, const st
     exec.for_each("merge in place init", n,
                   [=] IRGRID_HD(std::size_t i) { d_forward[i] = kNoCell; });
   }
-  Cell* cells = grid.cells.data();
   std::uint32_t *refs = grid.refs.data(), *d_forward = forward.data();
   // One writer per pair: its lower cell's thread, the only one reading either cell.
   exec.for_each("merge in place write", n, [=] IRGRID_HD(std::size_t i) {
     if (!heads_pair(parity, next, i)) return;
     const std::uint32_t j = next[i];
-    const Cell a = cells[i], b = cells[j];
-    Cell merged = a;
+    const CellT a = cells[i], b = cells[j];
+    CellT merged = a;
     merged.begin = used + offset[i];
     merged.end = merged.begin + write_sorted_union(refs + a.begin, a.end - a.begin, refs + b.begin,
                                                    b.end - b.begin, refs + merged.begin);
     for (int axis = 0; axis < 3; ++axis)
       merged.hi[axis] = b.hi[axis];
     cells[i] = merged;
-    cells[j] = absorbed_cell();
+    make_absorbed(cells[j]);
     quiet[i] = 0;
     quiet[j] = 7;
     d_forward[j] = std::uint32_t(i);
@@ -313,9 +330,9 @@ std::uint32_t apply_merges_in_place(Exec& exec, GridArrays<Exec>& grid, const st
 /// than in_place_below x the cells propose (apply_merges_in_place), else rebuilding the arrays.
 /// Leaves the grid untouched when no cell proposes. `absorbed` counts the cells absorbed in
 /// place and still in the arrays.
-template <typename Exec>
-void merge_sweep(Exec& exec, GridArrays<Exec>& grid, int axis, float cost_ratio, float empty_aspect,
-                 typename Exec::template Buffer<std::uint32_t>& quiet,
+template <typename Exec, typename CellBuffer>
+void merge_sweep(Exec& exec, GridArrays<Exec>& grid, CellBuffer& cells, int axis, float cost_ratio,
+                 float empty_aspect, typename Exec::template Buffer<std::uint32_t>& quiet,
                  typename Exec::template Buffer<std::uint32_t>& forward, std::uint32_t& absorbed,
                  float in_place_below, bool track) {
   const std::uint32_t n = grid.info.num_cells;
@@ -323,28 +340,29 @@ void merge_sweep(Exec& exec, GridArrays<Exec>& grid, int axis, float cost_ratio,
   auto prev = exec.template allocate<std::uint32_t>(n);
   auto union_size = exec.template allocate<std::uint32_t>(n);
   if (track) make_quiet_bits(exec, quiet, n);
-  const std::uint32_t proposals =
-      propose_merges(exec, grid, axis, cost_ratio, empty_aspect, next.data(), prev.data(),
-                     union_size.data(), quiet.size() != 0 ? quiet.data() : nullptr, track);
+  const std::uint32_t proposals = propose_merges(
+      exec, grid, cells.data(), axis, cost_ratio, empty_aspect, next.data(), prev.data(),
+      union_size.data(), quiet.size() != 0 ? quiet.data() : nullptr, track);
   if (proposals == 0) return;
   auto parity = chain_parity(exec, next.data(), prev.data(), n);
   release_buffer(prev);  // back to the pool before the merges ask for their arrays of n
   if (double(proposals) < double(in_place_below) * double(n)) {
     make_quiet_bits(exec, quiet, n);  // absorbed cells are marked quiet
-    const std::uint32_t merged = apply_merges_in_place(exec, grid, next.data(), union_size.data(),
-                                                       parity.data(), quiet.data(), forward, track);
+    const std::uint32_t merged =
+        apply_merges_in_place(exec, grid, cells.data(), next.data(), union_size.data(),
+                              parity.data(), quiet.data(), forward, track);
     absorbed += merged;
     if (merged > 0) return;
   }
-  mark_pair_heads(exec, grid, next.data(), parity.data());
+  mark_pair_heads(exec, n, cells.data(), next.data(), parity.data());
   release_buffer(next);
-  apply_merges(exec, grid, union_size.data(), parity.data(), quiet, forward, track);
+  apply_merges(exec, grid, cells, union_size.data(), parity.data(), quiet, forward, track);
   absorbed = 0;
 }
 
 /// Drops the cells absorbed by in-place sweeps (apply_merges with no pairs); nothing if none.
-template <typename Exec>
-void drop_absorbed_cells(Exec& exec, GridArrays<Exec>& grid,
+template <typename Exec, typename CellBuffer>
+void drop_absorbed_cells(Exec& exec, GridArrays<Exec>& grid, CellBuffer& cells,
                          typename Exec::template Buffer<std::uint32_t>& quiet,
                          typename Exec::template Buffer<std::uint32_t>& forward) {
   if (forward.size() == 0) return;
@@ -353,7 +371,31 @@ void drop_absorbed_cells(Exec& exec, GridArrays<Exec>& grid,
   auto pair_bits = exec.template allocate<std::uint8_t>(n);  // no pairs
   std::uint8_t* d_pair_bits = pair_bits.data();
   exec.for_each("merge drop absorbed", n, [=] IRGRID_HD(std::size_t i) { d_pair_bits[i] = 0; });
-  apply_merges(exec, grid, offsets.data(), d_pair_bits, quiet, forward, false);
+  apply_merges(exec, grid, cells, offsets.data(), d_pair_bits, quiet, forward, false);
+}
+
+/// merge_cells on the grid's cells in either form (`cells`: grid.cells or grid.narrow_cells).
+template <typename Exec, typename CellBuffer>
+void merge_rounds(Exec& exec, GridArrays<Exec>& grid, CellBuffer& cells, float alpha,
+                  float cost_ratio, float empty_aspect, float in_place_below) {
+  typename Exec::template Buffer<std::uint32_t> quiet;  // made on first use (make_quiet_bits)
+  // The first round merges most cells: waking their neighbours would cost more than the
+  // proposals it saves in the second round, so quiet cells are tracked from the second on.
+  typename Exec::template Buffer<std::uint32_t> forward;
+  std::uint32_t absorbed = 0;
+  for (bool track = false;; track = true) {
+    const std::uint32_t before = grid.info.num_cells - absorbed;
+    for (int axis = 0; axis < 3; ++axis)
+      merge_sweep(exec, grid, cells, axis, cost_ratio, empty_aspect, quiet, forward, absorbed,
+                  in_place_below, track);
+    const std::uint32_t after = grid.info.num_cells - absorbed;
+    if (after == before || double(after) >= double(alpha) * double(before)) break;
+  }
+  drop_absorbed_cells(exec, grid, cells, quiet, forward);
+  release_buffer(quiet);
+  // Compacted in place, the cells still hold the first sweep's array: down to their size (a
+  // copy, beside that array: the merge phase's peak on the hairball).
+  if constexpr (Exec::kCompactsInPlace) cells.shrink_to_fit();
 }
 
 }  // namespace merge_detail
@@ -377,7 +419,8 @@ inline constexpr float kMergeInPlaceBelow = 1.f / 16;
 ///
 /// Guarantees: cells still tile the virtual grid and the voxel map returns the owner of every
 /// voxel; every list is the sorted, duplicate-free union of the lists of the cells merged into
-/// it, so no reference is lost; the result is bit-identical for any number of threads.
+/// it, so no reference is lost; the result is bit-identical for any number of threads. Merges
+/// grid.narrow_cells when the assembly made them (narrow_cell.h), which stay narrow.
 template <typename Exec>
 void merge_cells(Exec& exec, GridArrays<Exec>& grid, float alpha, float cost_ratio,
                  float empty_aspect = 0, float in_place_below = kMergeInPlaceBelow) {
@@ -388,24 +431,16 @@ void merge_cells(Exec& exec, GridArrays<Exec>& grid, float alpha, float cost_rat
     throw Error(ErrorCode::invalid_argument, "empty_aspect = " + number_text(empty_aspect) +
                                                  " must be 0 (no bound) or a number >= 1");
   if (!(alpha > 0)) return;
-  typename Exec::template Buffer<std::uint32_t> quiet;  // made on first use (make_quiet_bits)
-  // The first round merges most cells: waking their neighbours would cost more than the
-  // proposals it saves in the second round, so quiet cells are tracked from the second on.
-  typename Exec::template Buffer<std::uint32_t> forward;
-  std::uint32_t absorbed = 0;
-  for (bool track = false;; track = true) {
-    const std::uint32_t before = grid.info.num_cells - absorbed;
-    for (int axis = 0; axis < 3; ++axis)
-      merge_detail::merge_sweep(exec, grid, axis, cost_ratio, empty_aspect, quiet, forward,
-                                absorbed, in_place_below, track);
-    const std::uint32_t after = grid.info.num_cells - absorbed;
-    if (after == before || double(after) >= double(alpha) * double(before)) break;
+  // Only the depth-first assembly makes narrow cells.
+  if constexpr (Exec::kDepthFirstOctrees) {
+    if (grid.narrow_cells.size() != 0) {
+      merge_detail::merge_rounds(exec, grid, grid.narrow_cells, alpha, cost_ratio, empty_aspect,
+                                 in_place_below);
+      return;
+    }
   }
-  merge_detail::drop_absorbed_cells(exec, grid, quiet, forward);
-  release_buffer(quiet);
-  // Compacted in place, the cells still hold the first sweep's array: down to their size (a
-  // copy, beside that array: the merge phase's peak on the hairball).
-  if constexpr (Exec::kCompactsInPlace) grid.cells.shrink_to_fit();
+  merge_detail::merge_rounds(exec, grid, grid.cells, alpha, cost_ratio, empty_aspect,
+                             in_place_below);
 }
 
 }  // namespace irgrid

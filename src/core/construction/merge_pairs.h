@@ -37,9 +37,9 @@ namespace merge_detail {
 inline constexpr std::uint32_t kNoCell = 0xffffffffu;
 
 /// Half the surface area, in world units, of the voxel box [lo, hi). The factor 2 cancels in the
-/// cost comparison.
-IRGRID_HD inline float half_area(const GridInfo& info, const std::int32_t* lo,
-                                 const std::int32_t* hi) {
+/// cost comparison. Corners of either cell form (Cell, NarrowCell).
+template <typename Coord>
+IRGRID_HD inline float half_area(const GridInfo& info, const Coord* lo, const Coord* hi) {
   const float dx = float(hi[0] - lo[0]) * info.voxel_size[0];
   const float dy = float(hi[1] - lo[1]) * info.voxel_size[1];
   const float dz = float(hi[2] - lo[2]) * info.voxel_size[2];
@@ -51,9 +51,9 @@ IRGRID_HD inline float half_area(const GridInfo& info, const std::int32_t* lo,
 /// (empty_aspect 0: always). The SAH alone merges empty cells into long slabs (merging two
 /// empty cells always lowers it), which rays crossing them must step through one by one;
 /// keeping the aspect ratio bounded keeps empty space in block-like cells. Not in the paper.
-IRGRID_HD inline bool empty_merge_keeps_shape(const GridInfo& info, const std::int32_t* lo,
-                                              const std::int32_t* hi, int axis,
-                                              float empty_aspect) {
+template <typename Coord>
+IRGRID_HD inline bool empty_merge_keeps_shape(const GridInfo& info, const Coord* lo,
+                                              const Coord* hi, int axis, float empty_aspect) {
   if (!(empty_aspect > 0)) return true;
   float thinnest = INFINITY;
   for (int other = 0; other < 3; ++other) {
@@ -65,7 +65,8 @@ IRGRID_HD inline bool empty_merge_keeps_shape(const GridInfo& info, const std::i
 
 /// The voxel just past the upper face of cell `a` along `axis`, where a merge partner would have
 /// its lower corner; false when that face lies on the grid's boundary.
-IRGRID_HD inline bool voxel_past_upper_face(const GridInfo& info, const Cell& a, int axis,
+template <typename CellT>
+IRGRID_HD inline bool voxel_past_upper_face(const GridInfo& info, const CellT& a, int axis,
                                             Voxel& past) {
   if (a.hi[axis] >= info.virtual_dims[axis]) return false;
   past = Voxel{a.lo[0], a.lo[1], a.lo[2]};
@@ -78,11 +79,12 @@ IRGRID_HD inline bool voxel_past_upper_face(const GridInfo& info, const Cell& a,
 /// c2 must start on that face and have a's cross-section, and the merged cell must cost no more
 /// than the two: SA(c1 ∪ c2)(n12 + C) <= SA(c1)(n1 + C) + SA(c2)(n2 + C). Two empty cells must
 /// also pass empty_merge_keeps_shape.
-IRGRID_HD inline bool proposes_merge(const GridInfo& info, const Cell* cells,
-                                     const std::uint32_t* refs, const Cell& a, std::uint32_t c2,
+template <typename CellT>
+IRGRID_HD inline bool proposes_merge(const GridInfo& info, const CellT* cells,
+                                     const std::uint32_t* refs, const CellT& a, std::uint32_t c2,
                                      int axis, float cost_ratio, float empty_aspect,
                                      std::uint32_t& union_size) {
-  const Cell b = cells[c2];
+  const CellT b = cells[c2];
   if (b.lo[axis] != a.hi[axis]) return false;
   for (int other = 0; other < 3; ++other)
     if (other != axis && (b.lo[other] != a.lo[other] || b.hi[other] != a.hi[other])) return false;
@@ -104,11 +106,12 @@ IRGRID_HD inline bool proposes_merge(const GridInfo& info, const Cell* cells,
 /// The cell that `c1` proposes to merge with along `axis` (kNoCell if none), and the size of the
 /// union of their lists in `union_size` when there is one (see proposes_merge). The one-cell
 /// form of what propose_merges computes for batches of cells.
+template <typename CellT>
 IRGRID_HD inline std::uint32_t merge_partner(const GridInfo& info, const Entry* entries,
-                                             const Cell* cells, const std::uint32_t* refs,
+                                             const CellT* cells, const std::uint32_t* refs,
                                              std::uint32_t c1, int axis, float cost_ratio,
                                              float empty_aspect, std::uint32_t& union_size) {
-  const Cell a = cells[c1];
+  const CellT a = cells[c1];
   Voxel past{};
   if (!voxel_past_upper_face(info, a, axis, past)) return kNoCell;
   const std::uint32_t c2 = lookup_cell(info, entries, past);
@@ -121,14 +124,14 @@ IRGRID_HD inline std::uint32_t merge_partner(const GridInfo& info, const Entry* 
 /// cell has at most one aligned predecessor, so that write has a single writer). quiet[c] holds
 /// one bit per axis: set, c is known to propose nothing along it and is skipped; a cell found to
 /// propose nothing gets the bit when `track` is set. quiet may be null (all bits clear) when
-/// `track` is not. Returns the number of proposals.
-template <typename Exec>
-std::uint32_t propose_merges(Exec& exec, const GridArrays<Exec>& grid, int axis, float cost_ratio,
-                             float empty_aspect, std::uint32_t* next, std::uint32_t* prev,
-                             std::uint32_t* union_size, std::uint32_t* quiet, bool track) {
+/// `track` is not. `cells` are the grid's, in either form. Returns the number of proposals.
+template <typename Exec, typename CellT>
+std::uint32_t propose_merges(Exec& exec, const GridArrays<Exec>& grid, const CellT* cells, int axis,
+                             float cost_ratio, float empty_aspect, std::uint32_t* next,
+                             std::uint32_t* prev, std::uint32_t* union_size, std::uint32_t* quiet,
+                             bool track) {
   const GridInfo info = grid.info;
   const Entry* entries = grid.entries.data();
-  const Cell* cells = grid.cells.data();
   const std::uint32_t* refs = grid.refs.data();
   const std::uint32_t bit = 1u << axis, n = info.num_cells;
   // Each body proposes for a batch of cells, walking their voxel-map lookups side by side: each

@@ -25,6 +25,7 @@
 #include <atomic>
 #include <bit>
 #include <cstdint>
+#include <type_traits>
 #include <vector>
 
 #include "core/construction/cells.h"
@@ -38,23 +39,17 @@ inline bool depth_first_applies(const GridInfo& info) {
   return morton_bits(info) <= 21;
 }
 
-/// A leaf as a chunk holds it, in half a Cell: its size follows from the level of the entry
-/// naming it, and its last reference from the next cell's first (or its top cell's count), so
-/// the chunks, which the copy holds beside the grid's arrays, take 16 bytes per cell, not 32.
-struct ChunkCell {
-  std::int32_t lo[3];   ///< 12 B lower voxel
-  std::uint32_t begin;  ///<  4 B first reference, counted from its top cell's first
-};
-static_assert(sizeof(ChunkCell) == 16);
-
 /// What one chunk of consecutive top cells (x-fastest order) built, with local indices: an inner
 /// entry at level L names a slot of the chunk's level L + 1, a leaf entry a cell counted from its
 /// own top cell's first, and a cell's first reference counts from its top cell's first. Slot k of
-/// level 0 is the root of the chunk's k-th top cell.
+/// level 0 is the root of the chunk's k-th top cell. A cell is held as its first reference
+/// alone: its box follows from its leaf's place in the octree, its last reference from the next
+/// cell's first (or its top cell's count), so the chunks, which the copy holds beside the grid's
+/// arrays, take 4 bytes per cell.
 template <typename Exec>
 struct ChunkOctrees {
   std::vector<typename Exec::template Buffer<Entry>> levels;  ///< entries of each octree level
-  typename Exec::template Buffer<ChunkCell> cells;
+  typename Exec::template Buffer<std::uint32_t> cell_begins;  ///< each cell's first reference
   typename Exec::template Buffer<std::uint32_t> refs;
 };
 
@@ -116,7 +111,7 @@ class TopCellBuilder {
   void build(Voxel lo, std::int32_t depth, const std::uint32_t* tris, std::uint32_t count,
              std::uint32_t slot) {
     top_depth_ = depth;
-    first_cell_ = std::uint32_t(chunk_.cells.size());
+    first_cell_ = std::uint32_t(chunk_.cell_begins.size());
     first_ref_ = std::uint32_t(chunk_.refs.size());
     reserve_lists(count);
     std::copy(tris, tris + count, lists_.data());
@@ -152,8 +147,8 @@ class TopCellBuilder {
     auto& entries = chunk_.levels[std::size_t(level)];
     if (!split) {
       masks_top_ = mask_begin;
-      entries[slot] = Entry::leaf(std::uint32_t(chunk_.cells.size()) - first_cell_);
-      chunk_.cells.push_back({{lo.x, lo.y, lo.z}, std::uint32_t(chunk_.refs.size()) - first_ref_});
+      entries[slot] = Entry::leaf(std::uint32_t(chunk_.cell_begins.size()) - first_cell_);
+      chunk_.cell_begins.push_back(std::uint32_t(chunk_.refs.size()) - first_ref_);
       chunk_.refs.insert(chunk_.refs.end(), lists_.data() + list_begin,
                          lists_.data() + list_begin + count);
       pending_refs_ += count;
@@ -278,7 +273,7 @@ bool pilot_predicts_budget_exceeded(Exec& exec, const GridInfo& info,
     ChunkOctrees<Exec> chunk;
     chunk.levels.assign(levels, exec.template allocate<Entry>(0));
     chunk.levels[0].resize(1);
-    chunk.cells = exec.template allocate<ChunkCell>(0);
+    chunk.cell_begins = exec.template allocate<std::uint32_t>(0);
     chunk.refs = exec.template allocate<std::uint32_t>(0);
     RunningTotals totals;
     totals.budget = std::min(kPilotSlack * std::uint64_t(double(budget) * count / pairs),
@@ -346,21 +341,21 @@ TopCellOctrees<Exec> build_top_cell_octrees(Exec& exec, const GridInfo& info,
     // Grown from the executor's buffers, so that a rebuild takes them from its pool.
     chunk.levels.assign(levels, exec.template allocate<Entry>(0));
     chunk.levels[0].resize(top_end - top_begin);
-    chunk.cells = exec.template allocate<ChunkCell>(0);
+    chunk.cell_begins = exec.template allocate<std::uint32_t>(0);
     chunk.refs = exec.template allocate<std::uint32_t>(0);
     depth_first_detail::TopCellBuilder<Exec> builder(info, triangles, rule, chunk, totals);
     for (std::uint32_t t = top_begin; t < top_end; ++t) {
-      const auto cells_before = std::uint32_t(chunk.cells.size());
+      const auto cells_before = std::uint32_t(chunk.cell_begins.size());
       const auto refs_before = std::uint32_t(chunk.refs.size());
       builder.build(top_cell_corner(info, t), rule.depths[t], tri + first[t], refs_per_top[t],
                     t - top_begin);
-      cells_per_top[t] = std::uint32_t(chunk.cells.size()) - cells_before;
+      cells_per_top[t] = std::uint32_t(chunk.cell_begins.size()) - cells_before;
       refs_out[t] = std::uint32_t(chunk.refs.size()) - refs_before;
     }
     // Grown by doubling, the buffers would hold up to twice what they use until they are
     // copied, beside the grid's arrays (Crown: 108 MiB, the octrees' share of the build's peak).
     // The copy is of a chunk still in cache.
-    chunk.cells.shrink_to_fit();
+    chunk.cell_begins.shrink_to_fit();
     chunk.refs.shrink_to_fit();
     for (auto& level : chunk.levels)
       level.shrink_to_fit();
@@ -369,9 +364,12 @@ TopCellOctrees<Exec> build_top_cell_octrees(Exec& exec, const GridInfo& info,
 }
 
 /// Copies the chunks into the grid's arrays (pass 2 of 2): the octree-form voxel map with its
-/// level offsets, the cells in Morton order with their ranges, the references. Consumes them.
+/// level offsets, the cells in Morton order with their ranges (in grid.narrow_cells where the
+/// virtual grid fits them and `allow_narrow`, see narrow_cell.h; else in grid.cells), the
+/// references. Consumes them.
 template <typename Exec>
-void assemble_top_cell_octrees(Exec& exec, TopCellOctrees<Exec>& octrees, GridArrays<Exec>& grid) {
+void assemble_top_cell_octrees(Exec& exec, TopCellOctrees<Exec>& octrees, GridArrays<Exec>& grid,
+                               bool allow_narrow = true) {
   const GridInfo& info = grid.info;
   const std::uint32_t n = octrees.top_cells, levels = octrees.levels_per_top;
   const auto chunk_count = std::uint32_t(octrees.chunks.size());
@@ -429,9 +427,10 @@ void assemble_top_cell_octrees(Exec& exec, TopCellOctrees<Exec>& octrees, GridAr
   const std::uint32_t *d_cell_base = cell_base.data(), *d_ref_base = ref_base.data();
   const std::uint32_t* cells_per_top = octrees.cells_per_top.data();
   const std::uint32_t* refs_per_top = octrees.refs_per_top.data();
-  // Calls visit(t, l, slot, entry) for every entry of chunk c, top cell after top cell, each
-  // top cell's octree depth first from its root: `slot` is the entry's index in the grid's
-  // entries (level l's offset, the chunk's base there, and its place in the chunk's level).
+  // Calls visit(t, l, slot, entry, lo) for every entry of chunk c, top cell after top cell,
+  // each top cell's octree depth first from its root: `slot` is the entry's index in the grid's
+  // entries (level l's offset, the chunk's base there, and its place in the chunk's level), `lo`
+  // its node's lower voxel (children in the order of the builder: bit 0 x, bit 1 y, bit 2 z).
   const auto for_each_entry = [&](std::size_t c, const auto& visit) {
     const ChunkOctrees<Exec>& chunk = chunks[c];
     const auto top_begin = std::uint32_t(c) * per_chunk;
@@ -439,18 +438,23 @@ void assemble_top_cell_octrees(Exec& exec, TopCellOctrees<Exec>& octrees, GridAr
     const std::uint64_t* chunk_base = chunk_level_base.data() + c * levels;
     struct Pending {
       std::uint32_t level, index;
+      Voxel lo;
     };
     std::vector<Pending> pending;  // at most 7 siblings per level on the path, and the next
     for (std::uint32_t t = top_begin; t < top_end; ++t) {
-      pending.push_back({0, t - top_begin});
+      pending.push_back({0, t - top_begin, top_cell_corner(info, t)});
       while (!pending.empty()) {
         const Pending at = pending.back();
         pending.pop_back();
         const Entry e = chunk.levels[at.level][at.index];
-        visit(t, at.level, level_offsets[at.level] + chunk_base[at.level] + at.index, e);
-        if (e.log_dim() != 0)
-          for (std::uint32_t child = 8; child-- > 0;)
-            pending.push_back({at.level + 1, e.index() + child});
+        visit(t, at.level, level_offsets[at.level] + chunk_base[at.level] + at.index, e, at.lo);
+        if (e.log_dim() == 0) continue;
+        const std::int32_t half = std::int32_t(1) << (info.shift - std::int32_t(at.level) - 1);
+        for (std::uint32_t child = 8; child-- > 0;) {
+          const Voxel lo{at.lo.x + ((child & 1) ? half : 0), at.lo.y + ((child & 2) ? half : 0),
+                         at.lo.z + ((child & 4) ? half : 0)};
+          pending.push_back({at.level + 1, e.index() + child, lo});
+        }
       }
     }
   };
@@ -472,45 +476,49 @@ void assemble_top_cell_octrees(Exec& exec, TopCellOctrees<Exec>& octrees, GridAr
       // The cells' first references become the grid's, so that the reference bases go before
       // the cells are made.
       for (std::uint32_t k = cell_at; k < cell_at + cells_per_top[t]; ++k)
-        chunk.cells[k].begin += d_ref_base[t];
+        chunk.cell_begins[k] += d_ref_base[t];
       cell_at += cells_per_top[t];
     }
     release_buffer(chunk.refs);
   });
   release_buffer(ref_base);
   release_buffer(octrees.refs_per_top);
-  grid.cells = exec.template allocate<Cell>(num_cells);
-  Cell* cells = grid.cells.data();
-  exec.for_each("octree copy", chunk_count, [&, chunks](std::size_t c) {
-    ChunkOctrees<Exec>& chunk = chunks[c];
-    // A top cell's cells are contiguous in the chunk and in the grid; a cell is written where
-    // its leaf entry gives its level, hence its size.
-    std::uint32_t cell_at = 0, current = std::uint32_t(c) * per_chunk;
-    for_each_entry(c, [&](std::uint32_t t, std::uint32_t l, std::uint64_t, Entry e) {
-      for (; current != t; ++current)
-        cell_at += cells_per_top[current];
-      if (e.log_dim() != 0) return;
-      const ChunkCell& leaf = chunk.cells[cell_at + e.index()];
-      const std::int32_t size = std::int32_t(1) << (info.shift - std::int32_t(l));
-      cells[d_cell_base[t] + e.index()] = {
-          {leaf.lo[0], leaf.lo[1], leaf.lo[2]},
-          leaf.begin,
-          {leaf.lo[0] + size, leaf.lo[1] + size, leaf.lo[2] + size},
-          0};  // set below
+  // A top cell's cells are contiguous in the chunk and in the grid; a cell is written where its
+  // leaf entry gives its level, hence its size. Narrow cells where the corners fit them.
+  const auto copy_cells = [&](auto& buffer) {
+    using CellT = std::remove_reference_t<decltype(buffer[0])>;
+    buffer = exec.template allocate<CellT>(num_cells);
+    CellT* cells = buffer.data();
+    exec.for_each("octree copy", chunk_count, [&, chunks](std::size_t c) {
+      ChunkOctrees<Exec>& chunk = chunks[c];
+      std::uint32_t cell_at = 0, current = std::uint32_t(c) * per_chunk;
+      for_each_entry(c, [&](std::uint32_t t, std::uint32_t l, std::uint64_t, Entry e, Voxel lo) {
+        for (; current != t; ++current)
+          cell_at += cells_per_top[current];
+        if (e.log_dim() != 0) return;
+        const std::int32_t corner[3] = {lo.x, lo.y, lo.z};
+        set_cube(cells[d_cell_base[t] + e.index()], corner,
+                 std::int32_t(1) << (info.shift - std::int32_t(l)),
+                 chunk.cell_begins[cell_at + e.index()]);
+      });
+      release_buffer(chunk.cell_begins);
     });
-    release_buffer(chunk.cells);
-  });
-  release_buffer(octrees.cells_per_top);
-  // The lists follow the cells without gaps (the same Morton order of top cells, each top cell's
-  // cells in its chunk's order), so each ends where the next begins.
-  exec.for_each("octree cell ends", num_cells, [=](std::size_t k) {
-    cells[k].end = k + 1 < num_cells ? cells[k + 1].begin : num_refs;
-  });
+    release_buffer(octrees.cells_per_top);
+    // The lists follow the cells without gaps (the same Morton order of top cells, each top
+    // cell's cells in its chunk's order), so each ends where the next begins.
+    exec.for_each("octree cell ends", num_cells, [=](std::size_t k) {
+      cells[k].end = k + 1 < num_cells ? cells[k + 1].begin : num_refs;
+    });
+  };
+  if (allow_narrow && fits_compact_cells(info))
+    copy_cells(grid.narrow_cells);
+  else
+    copy_cells(grid.cells);
   grid.entries = exec.template allocate<Entry>(num_entries);
   Entry* entries = grid.entries.data();
   exec.for_each("octree copy", chunk_count, [&, chunks](std::size_t c) {
     const std::uint64_t* chunk_base = chunk_level_base.data() + c * levels;
-    for_each_entry(c, [&](std::uint32_t t, std::uint32_t l, std::uint64_t slot, Entry e) {
+    for_each_entry(c, [&](std::uint32_t t, std::uint32_t l, std::uint64_t slot, Entry e, Voxel) {
       if (e.log_dim() != 0) {
         entries[slot] =
             Entry::inner(1, std::uint32_t(level_offsets[l + 1] + chunk_base[l + 1] + e.index()));
