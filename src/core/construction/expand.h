@@ -5,8 +5,9 @@
 // enter it); the box stored in the cell (where rays leave it) grows over neighbours whose
 // triangles it already lists, so traversal skips them and stops earlier. Each pass grows along
 // x, then y, then z; along one axis every cell tries both directions, reading one snapshot of
-// the boxes and writing a second buffer, so the result does not depend on scheduling. Why the
-// growth keeps traversal exact, and the partial mode, are explained in expand_face.h.
+// the boxes and writing its new extent along the axis to a second buffer, copied into the boxes
+// once all are grown, so the result does not depend on scheduling. Why the growth keeps
+// traversal exact, and the partial mode, are explained in expand_face.h.
 #pragma once
 
 #include <cstdint>
@@ -20,14 +21,22 @@ namespace irgrid {
 
 namespace expand_detail {
 
-/// Grows every cell along kAxis (both directions) from the boxes in grid.cells into `out`.
+/// A cell's extent along one axis, [lo, hi) in voxels: what one axis step changes. Eight bytes
+/// per cell beside the boxes, not a second array of boxes (32 bytes per cell): the build's
+/// memory peak on the hairball was the expansion's.
+struct AxisExtent {
+  std::int32_t lo, hi;
+};
+
+/// Grows every cell along kAxis (both directions): the new extents of the boxes in grid.cells
+/// go to `out`, then, once every cell has read the old boxes, into the boxes.
 /// `can_grow` holds one bit per face (bit 2 * kAxis for the lower face, 2 * kAxis + 1 for the
 /// upper one) and cell; a face whose bit is clear stays where it is, and the bit is cleared when
 /// the face did not grow by the full depth of its neighbours (blocked by the grid boundary or by
 /// a list): the same neighbours still own the voxels past that face in later passes, so it would
 /// mostly be blocked again. The bits only save work: clearing one never makes the grid wrong.
 template <int kAxis, typename Exec>
-void expand_axis(Exec& exec, const GridArrays<Exec>& grid, Cell* out, std::uint8_t* can_grow,
+void expand_axis(Exec& exec, GridArrays<Exec>& grid, AxisExtent* out, std::uint8_t* can_grow,
                  bool partial, std::int32_t growth_quantum) {
   const ExpandView view{grid.info,        grid.entries.data(),   grid.cells.data(),
                         grid.refs.data(), grid.triangles.data(), partial,
@@ -36,22 +45,28 @@ void expand_axis(Exec& exec, const GridArrays<Exec>& grid, Cell* out, std::uint8
                  up_bit = std::uint8_t(2u << (2 * kAxis));
   exec.for_each("expand cells", grid.info.num_cells, [=] IRGRID_HD(std::size_t i) {
     const Cell snapshot = view.cells[i];
-    Cell cell = snapshot;
+    AxisExtent extent{snapshot.lo[kAxis], snapshot.hi[kAxis]};
     std::uint8_t faces = can_grow[i];
     // Both directions read the snapshot box; the two slabs are disjoint and each is safe on its
     // own, so their union is too.
     if (faces & up_bit) {
       const FaceGrowth up = face_growth<kAxis, +1>(view, snapshot);
-      cell.hi[kAxis] += up.voxels;
+      extent.hi += up.voxels;
       if (!up.may_grow_further) faces = std::uint8_t(faces & ~up_bit);
     }
     if (faces & down_bit) {
       const FaceGrowth down = face_growth<kAxis, -1>(view, snapshot);
-      cell.lo[kAxis] -= down.voxels;
+      extent.lo -= down.voxels;
       if (!down.may_grow_further) faces = std::uint8_t(faces & ~down_bit);
     }
     can_grow[i] = faces;
-    out[i] = cell;
+    out[i] = extent;
+  });
+  // Every cell read the snapshot: the boxes take their new extents now.
+  Cell* cells = grid.cells.data();
+  exec.for_each("expand apply", grid.info.num_cells, [=] IRGRID_HD(std::size_t i) {
+    cells[i].lo[kAxis] = out[i].lo;
+    cells[i].hi[kAxis] = out[i].hi;
   });
 }
 
@@ -73,14 +88,13 @@ void expand_cells(Exec& exec, GridArrays<Exec>& grid, int passes, bool partial,
                   std::int32_t growth_quantum = 1) {
   const std::uint32_t count = grid.info.num_cells;
   if (passes <= 0 || count == 0) return;
-  auto back = exec.template allocate<Cell>(count);
+  auto extents = exec.template allocate<expand_detail::AxisExtent>(count);
   auto can_grow = exec.template allocate<std::uint8_t>(count);
   std::uint8_t* d_can_grow = can_grow.data();
   exec.for_each("expand flags", count, [=] IRGRID_HD(std::size_t i) { d_can_grow[i] = 0x3f; });
   const auto grow_along = [&](auto axis) {
-    expand_detail::expand_axis<decltype(axis)::value>(exec, grid, back.data(), d_can_grow, partial,
-                                                      growth_quantum);
-    std::swap(grid.cells, back);  // the boxes just written are the next step's snapshot
+    expand_detail::expand_axis<decltype(axis)::value>(exec, grid, extents.data(), d_can_grow,
+                                                      partial, growth_quantum);
   };
   for (int pass = 0; pass < passes; ++pass) {
     grow_along(std::integral_constant<int, 0>());
