@@ -81,6 +81,8 @@ void print_phase_memory(const PhaseMemoryRecorder& memory) {
     fmt::print("    {:<22} {:>10.1f} / {:>10.1f} MiB\n", to_string(p.phase),
                double(p.memory.resident_bytes) / 1048576.0,
                double(p.memory.peak_bytes) / 1048576.0);
+  fmt::print("  process memory peak {:>18.1f} MiB\n",
+             double(memory.whole_peak_bytes()) / 1048576.0);
 }
 
 void print_statistics(const Scene& scene, const Accelerator& accelerator, const BuildConfig& grid) {
@@ -138,6 +140,7 @@ void run_build(const BuildOptions& o) {
   auto statistics = statistics_json(scene, o.scene, *accelerator, o.structure.grid);
   if (o.fingerprint) statistics["grid_fingerprint"] = fingerprint;
   statistics["phase_process_memory"] = phase_memory_json(memory);
+  statistics["process_peak_bytes"] = memory.whole_peak_bytes();
   write_file_whole(o.json, statistics.dump(2) + '\n');
 }
 

@@ -29,4 +29,11 @@ bool reset_peak_memory() {
   return bool(clear_refs);
 }
 
+std::uint64_t PhaseMemoryRecorder::whole_peak_bytes() const {
+  std::uint64_t peak = process_memory().peak_bytes;
+  for (const PhaseMemory& p : phases_)
+    peak = p.memory.peak_bytes > peak ? p.memory.peak_bytes : peak;
+  return peak;
+}
+
 }  // namespace irgrid::cli

@@ -40,6 +40,11 @@ class PhaseMemoryRecorder {
   const std::vector<PhaseMemory>& phases() const { return phases_; }
   /// Whether each peak is that of its phase alone (else the process's peak so far).
   bool peaks_per_phase() const { return peaks_per_phase_; }
+  /// The process's peak resident size since the recorder was made: the highest phase peak, or
+  /// the peak since the last phase ended (what followed it: the build's end, the statistics).
+  /// The kernel's own high-water mark restarts with every phase, so the maximum resident size
+  /// that getrusage or /usr/bin/time report for this process is only that of its last phase.
+  std::uint64_t whole_peak_bytes() const;
 
  private:
   std::vector<PhaseMemory> phases_;
