@@ -410,9 +410,13 @@ TEST_F(Cli, BuildReportsTheProcessMemoryOfEachPhase) {
   // One entry per phase that ran, each as large as the phase times say ran.
   EXPECT_EQ(phases.size(), json["build_phases_ms"].size()) << phases.dump();
 #if defined(__linux__)
+  // The whole command's peak covers every phase's (the kernel's restarts with each phase).
+  const double whole = json["process_peak_bytes"].get<double>();
+  EXPECT_NE(r.out.find("process memory peak"), std::string::npos) << r.out;
   for (const auto& [phase, memory] : phases.items()) {
     EXPECT_GT(memory["resident_bytes"].get<double>(), 0) << phase;
     EXPECT_GE(memory["peak_bytes"].get<double>(), memory["resident_bytes"].get<double>()) << phase;
+    EXPECT_GE(whole, memory["peak_bytes"].get<double>()) << phase;
   }
 #endif
 }
