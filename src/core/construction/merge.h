@@ -120,14 +120,14 @@ void make_quiet_bits(Exec& exec, typename Exec::template Buffer<std::uint32_t>& 
 }
 
 /// Turns the resolved pairs (`pair_bits` and the partners of mark_pair_heads) into new cells and
-/// references, scans giving the new cell ids and
-/// reference offsets, and points every leaf of the voxel map at its new cell. `quiet` (one entry
-/// per cell, see propose_merges; empty: all zero, and it stays empty) is carried over to the new
-/// cells: cleared for merged cells and, when `track` is set, for the cells below a merged cell's
-/// lower corner. Cells absorbed by earlier in-place sweeps (`forward`, see
-/// apply_merges_in_place) are dropped, their map leaves pointed at the cell that absorbed them,
-/// and `forward` is emptied. `union_size` is overwritten with the new lists' offsets.
-/// `cell_buffer`: the grid's cells, in either form (grid.cells or grid.narrow_cells).
+/// references, scans giving the new cell ids and reference offsets, and points every leaf of the
+/// voxel map at its new cell. `quiet` (one entry per cell, see propose_merges; empty: all zero,
+/// and it stays empty) is carried over to the new cells: cleared for merged cells and, when
+/// `track` is set, for the cells below a merged cell's lower corner. Cells absorbed by earlier
+/// in-place sweeps (`forward`, see apply_merges_in_place) are dropped, their map leaves pointed
+/// at the cell that absorbed them, and `forward` is emptied. `union_size` is overwritten with
+/// the new lists' offsets. `cell_buffer`: the grid's cells, in either form (grid.cells or
+/// grid.narrow_cells).
 template <typename Exec, typename CellBuffer>
 void apply_merges(Exec& exec, GridArrays<Exec>& grid, CellBuffer& cell_buffer,
                   std::uint32_t* union_size, const std::uint8_t* pair_bits,
