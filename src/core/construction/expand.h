@@ -27,6 +27,7 @@ namespace expand_detail {
 struct AxisExtent {
   std::int32_t lo, hi;
 };
+static_assert(sizeof(AxisExtent) == 8);
 
 /// Grows every cell along kAxis (both directions): the new extents of the boxes in grid.cells
 /// go to `out`, then, once every cell has read the old boxes, into the boxes.
