@@ -42,6 +42,16 @@ struct GridArrays {
   bool budget_limited = false;
 };
 
+/// Sets each of the n cells' end to the next cell's begin (the last's to num_refs): for lists
+/// laid out in cell order without gaps, in either cell form.
+template <typename Exec, typename CellT>
+void end_lists_at_successors(Exec& exec, const char* name, CellT* cells, std::uint32_t n,
+                             std::uint32_t num_refs) {
+  exec.for_each(name, n, [=] IRGRID_HD(std::size_t k) {
+    cells[k].end = k + 1 < n ? cells[k + 1].begin : num_refs;
+  });
+}
+
 /// Moves narrow cells (if any) into grid.cells in the wide form.
 template <typename Exec>
 void widen_cells(Exec& exec, GridArrays<Exec>& grid) {

@@ -123,7 +123,7 @@ void flatten_map(Exec& exec, GridArrays<Exec>& grid,
     const std::uint32_t next_count = exec.transform_reduce(
         "flatten map", chunk, std::uint32_t(0),
         [] IRGRID_HD(std::uint32_t a, std::uint32_t b) { return a + b; },
-        [=] IRGRID_HD(std::size_t j) { return std::uint32_t(d_block[j].log_dim() != 0); });
+        [=] IRGRID_HD(std::size_t j) { return std::uint32_t(inner(j, 0)); });
     Indices next_roots = exec.template allocate<std::uint32_t>(next_count);
     Indices next_slots = exec.template allocate<std::uint32_t>(next_count);
     exec.select_if("flatten map", d_reached, next_roots.data(), chunk, inner);

@@ -39,17 +39,11 @@ IRGRID_HD inline std::uint32_t live_owner(const std::uint32_t* forward, std::uin
   return c;
 }
 
-/// Whether cell i heads a pair of this sweep: it proposed, and it is not absorbed itself.
-IRGRID_HD inline bool heads_pair(const std::uint8_t* parity, const std::uint32_t* next,
-                                 std::size_t i) {
-  return parity[i] == 0 && next[i] != kNoCell;
-}
-
-/// The bits of a cell's pair byte in a rebuilding sweep: its chain parity (chain_parity; set:
-/// absorbed by its predecessor) and, set by mark_pair_heads, whether it heads a pair.
+/// The bits of a cell's pair byte in a sweep: its chain parity (chain_parity; set: absorbed by
+/// its predecessor) and, set by mark_pair_heads, whether it heads a pair.
 inline constexpr std::uint8_t kAbsorbedBit = 1, kHeadsPairBit = 2;
 
-/// Whether cell i heads a pair of a rebuilding sweep (mark_pair_heads).
+/// Whether cell i heads a pair of the sweep (mark_pair_heads).
 IRGRID_HD inline bool marked_head(const std::uint8_t* pair_bits, std::size_t i) {
   return (pair_bits[i] & kHeadsPairBit) != 0;
 }
@@ -76,16 +70,17 @@ IRGRID_HD inline bool leaves_the_array(const std::uint8_t* pair_bits,
   return (pair_bits[i] & kAbsorbedBit) != 0 || (absorbed_by && absorbed_by[i] != kNoCell);
 }
 
-/// Marks the heads of the sweep's pairs in `pair_bits` (the chain parity, kHeadsPairBit added)
-/// and writes each head's partner over its upper corner, so that rebuilding sweeps run without
-/// the proposals' array of one cell id per cell (at their first sweep, the build's peak): a
-/// merged cell takes its whole upper corner from the cell it absorbs (they share their
-/// cross-section), so the head's own corner is not read again, and no other cell reads it.
+/// Marks the heads of the sweep's pairs in `pair_bits` (the chain parity, kHeadsPairBit added:
+/// a head proposed and is not absorbed itself) and writes each head's partner over its upper
+/// corner, so that the merges run without the proposals' array of one cell id per cell (at the
+/// first sweep, the build's peak): a merged cell takes its whole upper corner from the cell it
+/// absorbs (they share their cross-section), so the head's own corner is not read again, and no
+/// other cell reads it.
 template <typename Exec, typename CellT>
 void mark_pair_heads(Exec& exec, std::uint32_t n, CellT* cells, const std::uint32_t* next,
                      std::uint8_t* pair_bits) {
   exec.for_each("merge mark heads", n, [=] IRGRID_HD(std::size_t i) {
-    if (!heads_pair(pair_bits, next, i)) return;
+    if (pair_bits[i] != 0 || next[i] == kNoCell) return;
     keep_partner(cells[i], next[i]);
     pair_bits[i] = kHeadsPairBit;
   });
@@ -224,9 +219,7 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, CellBuffer& cell_buffer,
     if (has_quiet) quiet.resize(num_cells);
   }
   // A union's size is exact (proposes_merge), so each list ends where the next cell's begins.
-  exec.for_each("merge cell ends", num_cells, [=] IRGRID_HD(std::size_t k) {
-    out_cells[k].end = k + 1 < num_cells ? out_cells[k + 1].begin : num_refs;
-  });
+  end_lists_at_successors(exec, "merge cell ends", out_cells, num_cells, num_refs);
   Entry* entries = grid.entries.data();
   exec.for_each("merge remap entries", grid.info.num_entries, [=] IRGRID_HD(std::size_t i) {
     if (entries[i].log_dim() != 0) return;
@@ -255,13 +248,14 @@ void apply_merges(Exec& exec, GridArrays<Exec>& grid, CellBuffer& cell_buffer,
 /// bits) and gets make_absorbed. Its map leaves still name it, so lookups that land there find
 /// no partner (see make_absorbed) and waking resolves them through `forward`. The next
 /// apply_merges drops absorbed cells and points their leaves at their absorbers, so the grid
-/// ends as if every sweep had rebuilt it. Returns the number of pairs merged, or 0 without
-/// changing anything when the lists would pass the limit on references; `union_size` is
-/// overwritten when it merges. `cells`: the grid's, in either form.
+/// ends as if every sweep had rebuilt it. The pairs are those of mark_pair_heads. Returns the
+/// number of pairs merged, or 0 without merging any when the lists would pass the limit on
+/// references (the marks stay, for apply_merges); `union_size` is overwritten when it merges.
+/// `cells`: the grid's, in either form.
 template <typename Exec, typename CellT>
 std::uint32_t apply_merges_in_place(Exec& exec, GridArrays<Exec>& grid, CellT* cells,
-                                    const std::uint32_t* next, std::uint32_t* union_size,
-                                    const std::uint8_t* parity, std::uint32_t* quiet,
+                                    std::uint32_t* union_size, const std::uint8_t* pair_bits,
+                                    std::uint32_t* quiet,
                                     typename Exec::template Buffer<std::uint32_t>& forward,
                                     bool track) {
   const std::uint32_t n = grid.info.num_cells, used = grid.info.num_refs;
@@ -269,14 +263,14 @@ std::uint32_t apply_merges_in_place(Exec& exec, GridArrays<Exec>& grid, CellT* c
       "merge in place offsets", n, std::uint64_t(0),
       [] IRGRID_HD(std::uint64_t x, std::uint64_t y) { return x + y; },
       [=] IRGRID_HD(std::size_t i) {
-        return std::uint64_t(heads_pair(parity, next, i) ? union_size[i] : 0);
+        return std::uint64_t(marked_head(pair_bits, i) ? union_size[i] : 0);
       });
   if (used + added > kMaxEntryTarget) return 0;
   // Each head's list offset goes where its union's size was (no second array of n beside the
   // grown references).
   std::uint32_t* offset = union_size;
   exec.for_each("merge in place offsets", n, [=] IRGRID_HD(std::size_t i) {
-    if (!heads_pair(parity, next, i)) offset[i] = 0;
+    if (!marked_head(pair_bits, i)) offset[i] = 0;
   });
   exec.exclusive_scan("merge in place offsets", offset, offset, n);
   if (used + added > grid.refs.size()) {
@@ -298,9 +292,10 @@ std::uint32_t apply_merges_in_place(Exec& exec, GridArrays<Exec>& grid, CellT* c
   std::uint32_t *refs = grid.refs.data(), *d_forward = forward.data();
   // One writer per pair: its lower cell's thread, the only one reading either cell.
   exec.for_each("merge in place write", n, [=] IRGRID_HD(std::size_t i) {
-    if (!heads_pair(parity, next, i)) return;
-    const std::uint32_t j = next[i];
-    const CellT a = cells[i], b = cells[j];
+    if (!marked_head(pair_bits, i)) return;
+    const CellT a = cells[i];
+    const std::uint32_t j = marked_partner(a);
+    const CellT b = cells[j];
     CellT merged = a;
     merged.begin = used + offset[i];
     merged.end = merged.begin + write_sorted_union(refs + a.begin, a.end - a.begin, refs + b.begin,
@@ -317,13 +312,13 @@ std::uint32_t apply_merges_in_place(Exec& exec, GridArrays<Exec>& grid, CellT* c
   const Entry* entries = grid.entries.data();
   if (track)
     exec.for_each("merge in place wake", n, [=] IRGRID_HD(std::size_t i) {
-      if (heads_pair(parity, next, i)) wake_cells_below(info, entries, cells[i], quiet, d_forward);
+      if (marked_head(pair_bits, i)) wake_cells_below(info, entries, cells[i], quiet, d_forward);
     });
   grid.info.num_refs = std::uint32_t(used + added);
   return exec.transform_reduce(
       "merge in place count", n, std::uint32_t(0),
       [] IRGRID_HD(std::uint32_t x, std::uint32_t y) { return x + y; },
-      [=] IRGRID_HD(std::size_t i) { return std::uint32_t(heads_pair(parity, next, i)); });
+      [=] IRGRID_HD(std::size_t i) { return std::uint32_t(marked_head(pair_bits, i)); });
 }
 
 /// One sweep along `axis`: proposals, chain resolution, then the merges, in place when fewer
@@ -344,19 +339,19 @@ void merge_sweep(Exec& exec, GridArrays<Exec>& grid, CellBuffer& cells, int axis
       exec, grid, cells.data(), axis, cost_ratio, empty_aspect, next.data(), prev.data(),
       union_size.data(), quiet.size() != 0 ? quiet.data() : nullptr, track);
   if (proposals == 0) return;
-  auto parity = chain_parity(exec, next.data(), prev.data(), n);
+  auto pair_bits = chain_parity(exec, next.data(), prev.data(), n);
   release_buffer(prev);  // back to the pool before the merges ask for their arrays of n
+  mark_pair_heads(exec, n, cells.data(), next.data(), pair_bits.data());
+  release_buffer(next);
   if (double(proposals) < double(in_place_below) * double(n)) {
     make_quiet_bits(exec, quiet, n);  // absorbed cells are marked quiet
     const std::uint32_t merged =
-        apply_merges_in_place(exec, grid, cells.data(), next.data(), union_size.data(),
-                              parity.data(), quiet.data(), forward, track);
+        apply_merges_in_place(exec, grid, cells.data(), union_size.data(), pair_bits.data(),
+                              quiet.data(), forward, track);
     absorbed += merged;
     if (merged > 0) return;
   }
-  mark_pair_heads(exec, n, cells.data(), next.data(), parity.data());
-  release_buffer(next);
-  apply_merges(exec, grid, cells, union_size.data(), parity.data(), quiet, forward, track);
+  apply_merges(exec, grid, cells, union_size.data(), pair_bits.data(), quiet, forward, track);
   absorbed = 0;
 }
 

@@ -174,9 +174,7 @@ class TopCellBuilder {
         kept += masks[k] >> bit & 1;
       }
       lists_top_ = child_begin + kept;
-      const Voxel child{lo.x + ((bit & 1) ? half : 0), lo.y + ((bit & 2) ? half : 0),
-                        lo.z + ((bit & 4) ? half : 0)};
-      node(level + 1, child, child_begin, kept, base + bit);
+      node(level + 1, child_corner(lo, half, bit), child_begin, kept, base + bit);
       lists_top_ = child_begin;
     }
     masks_top_ = mask_begin;
@@ -430,7 +428,7 @@ void assemble_top_cell_octrees(Exec& exec, TopCellOctrees<Exec>& octrees, GridAr
   // Calls visit(t, l, slot, entry, lo) for every entry of chunk c, top cell after top cell,
   // each top cell's octree depth first from its root: `slot` is the entry's index in the grid's
   // entries (level l's offset, the chunk's base there, and its place in the chunk's level), `lo`
-  // its node's lower voxel (children in the order of the builder: bit 0 x, bit 1 y, bit 2 z).
+  // its node's lower voxel.
   const auto for_each_entry = [&](std::size_t c, const auto& visit) {
     const ChunkOctrees<Exec>& chunk = chunks[c];
     const auto top_begin = std::uint32_t(c) * per_chunk;
@@ -450,11 +448,8 @@ void assemble_top_cell_octrees(Exec& exec, TopCellOctrees<Exec>& octrees, GridAr
         visit(t, at.level, level_offsets[at.level] + chunk_base[at.level] + at.index, e, at.lo);
         if (e.log_dim() == 0) continue;
         const std::int32_t half = std::int32_t(1) << (info.shift - std::int32_t(at.level) - 1);
-        for (std::uint32_t child = 8; child-- > 0;) {
-          const Voxel lo{at.lo.x + ((child & 1) ? half : 0), at.lo.y + ((child & 2) ? half : 0),
-                         at.lo.z + ((child & 4) ? half : 0)};
-          pending.push_back({at.level + 1, e.index() + child, lo});
-        }
+        for (std::uint32_t child = 8; child-- > 0;)
+          pending.push_back({at.level + 1, e.index() + child, child_corner(at.lo, half, child)});
       }
     }
   };
@@ -505,10 +500,8 @@ void assemble_top_cell_octrees(Exec& exec, TopCellOctrees<Exec>& octrees, GridAr
     });
     release_buffer(octrees.cells_per_top);
     // The lists follow the cells without gaps (the same Morton order of top cells, each top
-    // cell's cells in its chunk's order), so each ends where the next begins.
-    exec.for_each("octree cell ends", num_cells, [=](std::size_t k) {
-      cells[k].end = k + 1 < num_cells ? cells[k + 1].begin : num_refs;
-    });
+    // cell's cells in its chunk's order).
+    end_lists_at_successors(exec, "octree cell ends", cells, num_cells, num_refs);
   };
   if (allow_narrow && fits_compact_cells(info))
     copy_cells(grid.narrow_cells);

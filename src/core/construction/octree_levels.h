@@ -59,6 +59,13 @@ LevelNodes<Exec> top_level_nodes(Exec& exec, const GridInfo& info) {
   return nodes;
 }
 
+/// The lower voxel of child `bit` (bit 0 selects the upper x half, bit 1 y, bit 2 z) of the node
+/// with lower voxel `lo` and children of `half` voxels.
+IRGRID_HD inline Voxel child_corner(Voxel lo, std::int32_t half, std::uint32_t bit) {
+  return {lo.x + ((bit & 1) ? half : 0), lo.y + ((bit & 2) ? half : 0),
+          lo.z + ((bit & 4) ? half : 0)};
+}
+
 /// A node about to be split (lower voxel `lo`, children of `half` voxels) in world units: what
 /// child_overlap_mask needs of it, computed once for all of its triangles.
 struct NodeSplit {
@@ -418,9 +425,7 @@ std::pair<LevelNodes<Exec>, RefPairs<Exec>> split_level(Exec& exec, const GridIn
   exec.for_each("child nodes", nodes.count, [=] IRGRID_HD(std::size_t i) {
     if (!split[i]) return;
     for (std::uint32_t bit = 0; bit < 8; ++bit) {
-      const Voxel v = lo[i];
-      child_lo[child_base[i] + bit] = {v.x + ((bit & 1) ? half : 0), v.y + ((bit & 2) ? half : 0),
-                                       v.z + ((bit & 4) ? half : 0)};
+      child_lo[child_base[i] + bit] = child_corner(lo[i], half, bit);
       child_top[child_base[i] + bit] = top[i];
     }
   });
