@@ -386,8 +386,11 @@ void merge_rounds(Exec& exec, GridArrays<Exec>& grid, CellBuffer& cells, float a
     const std::uint32_t after = grid.info.num_cells - absorbed;
     if (after == before || double(after) >= double(alpha) * double(before)) break;
   }
-  drop_absorbed_cells(exec, grid, cells, quiet, forward);
+  // No sweep follows: the quiet bits go before the cells absorbed in place are dropped, which
+  // writes new lists beside the old ones (the merge phase's peak on the budget-limited 10M
+  // hairball).
   release_buffer(quiet);
+  drop_absorbed_cells(exec, grid, cells, quiet, forward);
   // Compacted in place, the cells still hold the first sweep's array: down to their size (a
   // copy, beside that array: the merge phase's peak on the hairball).
   if constexpr (Exec::kCompactsInPlace) cells.shrink_to_fit();
@@ -426,7 +429,7 @@ void merge_cells(Exec& exec, GridArrays<Exec>& grid, float alpha, float cost_rat
     throw Error(ErrorCode::invalid_argument, "empty_aspect = " + number_text(empty_aspect) +
                                                  " must be 0 (no bound) or a number >= 1");
   if (!(alpha > 0)) return;
-  // Only the depth-first assembly makes narrow cells.
+  // Only the host's assemblies make narrow cells.
   if constexpr (Exec::kDepthFirstOctrees) {
     if (grid.narrow_cells.size() != 0) {
       merge_detail::merge_rounds(exec, grid, grid.narrow_cells, alpha, cost_ratio, empty_aspect,
