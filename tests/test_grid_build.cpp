@@ -577,6 +577,48 @@ TEST(GridBuild, NarrowAndFullCellsOfTheDepthFirstAssemblyAreTheSame) {
   }
 }
 
+TEST(GridBuild, WalkingTheLevelsAssemblesTheGridSortingThemDoes) {
+  // The CPU's budget-limited path: the level-by-level octrees without cells, assembled by
+  // walking the map (cells_by_walk.h), in both cell forms, against the GPU's assembly (a sort of
+  // the levels' cells and of all pairs). Budgets that stop the octrees at several levels.
+  for (const char* spec :
+       {"builtin:teapot-stadium:3000", "builtin:hairball:5000", "builtin:overlap:2000"}) {
+    DepthFirstInputs in(spec);
+    ASSERT_TRUE(depth_first_applies(in.grid.info));
+    ASSERT_TRUE(fits_compact_cells(in.grid.info));
+    bool some_limited = false;
+    for (const std::uint64_t budget :
+         {std::uint64_t(1) << 40, std::uint64_t(1) << 22, std::uint64_t(1) << 20}) {
+      SCOPED_TRACE(::testing::Message() << spec << ", budget " << budget);
+      const auto levels = [&](bool with_cells) {
+        RefPairs<CpuExecutor> copy{in.exec.allocate<std::uint32_t>(in.pairs.count),
+                                   in.exec.allocate<std::uint32_t>(in.pairs.count), in.pairs.count};
+        std::copy_n(in.pairs.cell.data(), in.pairs.count, copy.cell.data());
+        std::copy_n(in.pairs.tri.data(), in.pairs.count, copy.tri.data());
+        return build_octree_levels(in.exec, in.grid.info, in.grid.triangles.data(), std::move(copy),
+                                   in.rule(), budget, with_cells);
+      };
+      GridArrays<CpuExecutor> sorted = in.grid, narrow = in.grid, wide = in.grid;
+      auto with_cells = levels(true);
+      assemble_grid(in.exec, with_cells, sorted);
+      auto without_cells = levels(false);
+      some_limited |= without_cells.budget_limited;
+      EXPECT_TRUE(without_cells.cells.empty());
+      EXPECT_EQ(without_cells.num_cells, sorted.info.num_cells);
+      assemble_grid_by_walk(in.exec, without_cells, narrow);
+      EXPECT_TRUE(narrow.cells.empty());
+      ASSERT_EQ(narrow.narrow_cells.size(), narrow.info.num_cells);
+      widen_cells(in.exec, narrow);
+      testing::expect_same_grid(sorted, narrow);
+      without_cells = levels(false);
+      assemble_grid_by_walk(in.exec, without_cells, wide, false);
+      EXPECT_TRUE(wide.narrow_cells.empty());
+      testing::expect_same_grid(sorted, wide);
+    }
+    EXPECT_TRUE(some_limited);
+  }
+}
+
 TEST(GridLimits, ALevelStopsItsTestsEarlyWithTheSameOctrees) {
   // The level-by-level build stops a level's triangle/child tests once the splits that must
   // happen pass the budget; the octrees must be those of a level that ran all its tests.

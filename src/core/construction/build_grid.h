@@ -12,6 +12,7 @@
 #include <utility>
 
 #include "core/construction/cells.h"
+#include "core/construction/cells_by_walk.h"
 #include "core/construction/compact_map.h"
 #include "core/construction/empty_space.h"
 #include "core/construction/expand.h"
@@ -216,12 +217,17 @@ std::int32_t build_initial_grid(Exec& exec, GridArrays<Exec>& grid, const BuildC
       }
     }
   }
-  auto levels =
-      build_octree_levels(exec, grid.info, triangles, std::move(pairs), rule, grid.budget_bytes);
+  // The host walks the octrees into Morton order (cells_by_walk.h), so the levels need no cells.
+  const bool by_walk = Exec::kDepthFirstOctrees && depth_first_applies(grid.info);
+  auto levels = build_octree_levels(exec, grid.info, triangles, std::move(pairs), rule,
+                                    grid.budget_bytes, !by_walk);
   grid.budget_limited |= levels.budget_limited;
   clock.lap(BuildPhase::octree_levels);
   plan_empty_space();
-  assemble_grid(exec, levels, grid);
+  if constexpr (Exec::kDepthFirstOctrees) {
+    if (by_walk) assemble_grid_by_walk(exec, levels, grid);
+  }
+  if (!by_walk) assemble_grid(exec, levels, grid);
   clock.lap(BuildPhase::cells_and_references);
   return depths.deepest_lambda2;
 }

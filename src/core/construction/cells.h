@@ -23,7 +23,7 @@ struct GridArrays {
   GridInfo info{};
   typename Exec::template Buffer<Entry> entries;
   typename Exec::template Buffer<Cell> cells;
-  /// The cells in 20 bytes from the depth-first assembly until they are merged (narrow_cell.h);
+  /// The cells in 20 bytes from the host's assemblies until they are merged (narrow_cell.h);
   /// `cells` is empty meanwhile, and this empty otherwise. widen_cells ends it.
   typename Exec::template Buffer<NarrowCell> narrow_cells;
   typename Exec::template Buffer<std::uint32_t> refs;
@@ -80,6 +80,21 @@ typename Exec::template Buffer<T> concatenate(
   return out;
 }
 
+/// Moves the levels' entries into grid.entries (the octree-form map) and its level offsets.
+template <typename Exec>
+void take_level_entries(Exec& exec, OctreeLevels<Exec>& levels, GridArrays<Exec>& grid) {
+  grid.entries =
+      concatenate<Exec, Entry>(exec, "concatenate entries", levels.entries, levels.num_entries);
+  grid.level_offsets.clear();
+  std::uint32_t offset = 0;
+  for (const auto& level : levels.entries) {
+    grid.level_offsets.push_back(offset);
+    offset += std::uint32_t(level.size());
+  }
+  grid.level_offsets.push_back(offset);
+  levels.entries.clear();
+}
+
 /// Sorts the pairs by cell (stable) and writes each cell's [begin, end) range. Ranges follow
 /// the cell order without gaps, empty cells included (begin == end at their place), so a cell's
 /// end is the next cell's begin, which compressed cells rely on.
@@ -109,16 +124,7 @@ typename Exec::template Buffer<std::uint32_t> sort_references(Exec& exec, RefPai
 /// hold the grid twice (`levels` keeps only its counts).
 template <typename Exec>
 void assemble_grid(Exec& exec, OctreeLevels<Exec>& levels, GridArrays<Exec>& grid) {
-  grid.entries =
-      concatenate<Exec, Entry>(exec, "concatenate entries", levels.entries, levels.num_entries);
-  grid.level_offsets.clear();
-  std::uint32_t offset = 0;
-  for (const auto& level : levels.entries) {
-    grid.level_offsets.push_back(offset);
-    offset += std::uint32_t(level.size());
-  }
-  grid.level_offsets.push_back(offset);
-  levels.entries.clear();
+  take_level_entries(exec, levels, grid);
   grid.cells = concatenate<Exec, Cell>(exec, "concatenate cells", levels.cells, levels.num_cells);
   levels.cells.clear();
   std::vector<typename Exec::template Buffer<std::uint32_t>> cell_parts, tri_parts;

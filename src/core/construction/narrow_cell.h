@@ -3,10 +3,11 @@
 // The initial grid holds the most cells of the build (Sponza: 878 K, against 351 K merged), and
 // its assembly and first merge sweep make the build's memory peak: a Cell's 32 bytes were the
 // largest array there. Where the virtual grid fits 16 bits per axis (fits_compact_cells, as the
-// finished grid's 16-byte cells need anyway), the depth-first assembly writes its cells in this
-// form, merging works on it, and the cells are widened to Cell once merged (widen_cells,
-// cells.h). The reference range stays explicit (begin and end): merging in place writes lists
-// past the others, so an end is not always the next cell's begin there.
+// finished grid's 16-byte cells need anyway), the host's assemblies (octree_depth_first.h,
+// cells_by_walk.h) write their cells in this form, merging works on it, and the cells are widened
+// to Cell once merged (widen_cells, cells.h). The reference range stays explicit (begin and end):
+// merging in place writes lists past the others, so an end is not always the next cell's begin
+// there.
 #pragma once
 
 #include <cstdint>

@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "core/construction/cells.h"
+#include "core/construction/octree_walk.h"
 #include "core/release_buffer.h"
 
 namespace irgrid {
@@ -385,36 +386,15 @@ void assemble_top_cell_octrees(Exec& exec, TopCellOctrees<Exec>& octrees, GridAr
   const std::uint64_t num_entries = level_offsets[levels];
   check_entry_count(num_entries);
   // Cells and references: top cell after top cell in the Morton order of their corners.
-  auto keys = exec.template allocate<std::uint64_t>(n);
-  auto order = exec.template allocate<std::uint32_t>(n);
-  std::uint64_t* d_keys = keys.data();
-  std::uint32_t* d_order = order.data();
-  exec.for_each("octree top-cell order", n, [=] IRGRID_HD(std::size_t i) {
-    const Voxel v = top_cell_corner(info, std::uint32_t(i));
-    const std::int32_t corner[3] = {v.x, v.y, v.z};
-    d_keys[i] = morton_key(corner, 0);
-    d_order[i] = std::uint32_t(i);
-  });
-  exec.sort_pairs("octree top-cell order", d_keys, d_order, n, std::max(1, 3 * morton_bits(info)));
-  release_buffer(keys);
+  auto order = top_cells_in_morton_order(exec, info);
   auto cell_base = exec.template allocate<std::uint32_t>(n);
   auto ref_base = exec.template allocate<std::uint32_t>(n);
   auto ranked = exec.template allocate<std::uint32_t>(n);
-  std::uint32_t* d_ranked = ranked.data();
-  const auto base_in_morton_order = [&](const auto& per_top, auto& base) {
-    const std::uint32_t* counts = per_top.data();
-    exec.for_each("octree top-cell order", n,
-                  [=](std::size_t k) { d_ranked[k] = counts[d_order[k]]; });
-    const std::uint64_t total = wide_sum(exec, "octree top-cell order", d_ranked, n);
-    exec.exclusive_scan("octree top-cell order", d_ranked, d_ranked, n);
-    std::uint32_t* d_base = base.data();
-    exec.for_each("octree top-cell order", n,
-                  [=](std::size_t k) { d_base[d_order[k]] = d_ranked[k]; });
-    return total;
-  };
   // The builders checked the running totals; cells are fewer than entries.
-  const auto num_cells = std::uint32_t(base_in_morton_order(octrees.cells_per_top, cell_base));
-  const std::uint64_t all_refs = base_in_morton_order(octrees.refs_per_top, ref_base);
+  const auto num_cells = std::uint32_t(bases_in_order(
+      exec, order.data(), octrees.cells_per_top.data(), ranked.data(), cell_base.data(), n));
+  const std::uint64_t all_refs = bases_in_order(exec, order.data(), octrees.refs_per_top.data(),
+                                                ranked.data(), ref_base.data(), n);
   check_reference_count(all_refs, "octree references");
   const auto num_refs = std::uint32_t(all_refs);
   // The bases hold the order now; its scratch goes before the copy makes the build's peak.
@@ -426,32 +406,21 @@ void assemble_top_cell_octrees(Exec& exec, TopCellOctrees<Exec>& octrees, GridAr
   const std::uint32_t* cells_per_top = octrees.cells_per_top.data();
   const std::uint32_t* refs_per_top = octrees.refs_per_top.data();
   // Calls visit(t, l, slot, entry, lo) for every entry of chunk c, top cell after top cell,
-  // each top cell's octree depth first from its root: `slot` is the entry's index in the grid's
-  // entries (level l's offset, the chunk's base there, and its place in the chunk's level), `lo`
-  // its node's lower voxel.
+  // each top cell's octree depth first from its root (walk_octree): `slot` is the entry's index
+  // in the grid's entries (level l's offset, the chunk's base there, and its place in the
+  // chunk's level), `lo` its node's lower voxel.
   const auto for_each_entry = [&](std::size_t c, const auto& visit) {
     const ChunkOctrees<Exec>& chunk = chunks[c];
     const auto top_begin = std::uint32_t(c) * per_chunk;
     const std::uint32_t top_end = std::min(n, top_begin + per_chunk);
     const std::uint64_t* chunk_base = chunk_level_base.data() + c * levels;
-    struct Pending {
-      std::uint32_t level, index;
-      Voxel lo;
-    };
-    std::vector<Pending> pending;  // at most 7 siblings per level on the path, and the next
-    for (std::uint32_t t = top_begin; t < top_end; ++t) {
-      pending.push_back({0, t - top_begin, top_cell_corner(info, t)});
-      while (!pending.empty()) {
-        const Pending at = pending.back();
-        pending.pop_back();
-        const Entry e = chunk.levels[at.level][at.index];
-        visit(t, at.level, level_offsets[at.level] + chunk_base[at.level] + at.index, e, at.lo);
-        if (e.log_dim() == 0) continue;
-        const std::int32_t half = std::int32_t(1) << (info.shift - std::int32_t(at.level) - 1);
-        for (std::uint32_t child = 8; child-- > 0;)
-          pending.push_back({at.level + 1, e.index() + child, child_corner(at.lo, half, child)});
-      }
-    }
+    for (std::uint32_t t = top_begin; t < top_end; ++t)
+      walk_octree(
+          info, t, t - top_begin,
+          [&](std::uint32_t l, std::uint64_t i) { return chunk.levels[l][i]; },
+          [&](std::uint32_t l, std::uint64_t i, Entry e, Voxel lo) {
+            visit(t, l, level_offsets[l] + chunk_base[l] + i, e, lo);
+          });
   };
   // Three passes, each freeing the chunks' part it copied before the next array is made, so
   // that the chunks and the grid's arrays are never all held at once (the build's peak on

@@ -14,16 +14,20 @@
 
 #include "core/construction/memory_budget.h"
 #include "core/construction/top_level_refs.h"
+#include "core/release_buffer.h"
 #include "irgrid/build_config.h"
 
 namespace irgrid {
 
 /// The octree-form result: all levels' entries, cells and (cell, triangle) pairs concatenated.
+/// A leaf is named by its rank among all levels' leaves, level after level.
 template <typename Exec>
 struct OctreeLevels {
   std::vector<typename Exec::template Buffer<Entry>> entries;  ///< one buffer per level
-  std::vector<typename Exec::template Buffer<Cell>> cells;     ///< leaves of each level
-  std::vector<RefPairs<Exec>> pairs;                           ///< (cell, triangle) of each level
+  /// Leaves of each level, as cells; none where the build was asked for the map alone (the
+  /// leaves' boxes follow from their place in it: assemble_grid_by_walk).
+  std::vector<typename Exec::template Buffer<Cell>> cells;
+  std::vector<RefPairs<Exec>> pairs;  ///< (cell, triangle) of each level
   std::uint32_t num_entries = 0, num_cells = 0, num_refs = 0;
   /// The construction budget stopped the octrees at the last level that fit it.
   bool budget_limited = false;
@@ -341,6 +345,7 @@ LevelPlan<Exec> plan_level(Exec& exec, const GridInfo& info, const TriangleVerti
           std::uint64_t(built.num_refs) + (pairs.count - split_refs) + child_refs);
     }
   }
+  release_buffer(plan.folded);
   if (passes_budget) {
     plan.budget_stop = true;
     exec.for_each("level budget stop", n, [=] IRGRID_HD(std::size_t i) { split[i] = kNoSplit; });
@@ -355,13 +360,13 @@ LevelPlan<Exec> plan_level(Exec& exec, const GridInfo& info, const TriangleVerti
   return plan;
 }
 
-/// Writes this level's voxel-map entries and leaf cells into `out`.
+/// Writes this level's voxel-map entries and, with `with_cells`, its leaf cells into `out`.
 template <typename Exec>
 void emit_level_entries_and_cells(Exec& exec, const GridInfo& info, const LevelNodes<Exec>& nodes,
-                                  const LevelPlan<Exec>& plan, std::int32_t level,
+                                  const LevelPlan<Exec>& plan, std::int32_t level, bool with_cells,
                                   OctreeLevels<Exec>& out) {
   auto entries = exec.template allocate<Entry>(nodes.count);
-  auto cells = exec.template allocate<Cell>(plan.leaves);
+  auto cells = exec.template allocate<Cell>(with_cells ? plan.leaves : 0);
   Entry* d_entries = entries.data();
   Cell* d_cells = cells.data();
   const std::uint32_t *child_base = plan.child_base.data(), *leaf_index = plan.leaf_index.data();
@@ -375,13 +380,14 @@ void emit_level_entries_and_cells(Exec& exec, const GridInfo& info, const LevelN
       return;
     }
     d_entries[i] = Entry::leaf(first_cell + leaf_index[i]);
+    if (!with_cells) return;
     const Voxel v = lo[i];
     d_cells[leaf_index[i]] = {{v.x, v.y, v.z}, 0, {v.x + size, v.y + size, v.z + size}, 0};
   });
   out.num_entries += nodes.count;
   out.num_cells += plan.leaves;
   out.entries.push_back(std::move(entries));
-  out.cells.push_back(std::move(cells));
+  if (with_cells) out.cells.push_back(std::move(cells));
 }
 
 /// Moves the pairs of nodes that stay leaves to `out`, as (cell, triangle).
@@ -407,21 +413,63 @@ void keep_leaf_pairs(Exec& exec, const RefPairs<Exec>& pairs, const LevelPlan<Ex
   out.pairs.push_back(std::move(leaf_pairs));
 }
 
+/// keep_leaf_pairs of a level where no node splits (the last): every pair is kept, in place.
+/// The deepest level holds the most pairs (the budget-limited 10M-triangle hairball: 110
+/// million), which a selection would hold three times.
+template <typename Exec>
+void keep_all_pairs(Exec& exec, RefPairs<Exec>& pairs, const LevelPlan<Exec>& plan,
+                    std::uint32_t first_cell, OctreeLevels<Exec>& out) {
+  std::uint32_t* node = pairs.cell.data();
+  const std::uint32_t* leaf_index = plan.leaf_index.data();
+  exec.for_each("keep leaf pairs", pairs.count,
+                [=] IRGRID_HD(std::size_t i) { node[i] = first_cell + leaf_index[node[i]]; });
+  out.num_refs += pairs.count;
+  out.pairs.push_back(std::move(pairs));
+}
+
 /// The children of the split nodes, and their (child, triangle) pairs (the plan's masks).
+/// Consumes the nodes and the pairs.
 template <typename Exec>
 std::pair<LevelNodes<Exec>, RefPairs<Exec>> split_level(Exec& exec, const GridInfo& info,
-                                                        const LevelNodes<Exec>& nodes,
-                                                        const RefPairs<Exec>& pairs,
+                                                        LevelNodes<Exec>& nodes,
+                                                        RefPairs<Exec>& pairs,
                                                         const LevelPlan<Exec>& plan,
                                                         std::int32_t level) {
+  // Each pair's first child pair, over all pairs (0 children for a leaf's): a selection of
+  // the split nodes' pairs and their offsets took more (the 10M hairball's split of level 2).
+  const std::uint32_t *node = pairs.cell.data(), *tri = pairs.tri.data();
+  const std::uint32_t* child_base = plan.child_base.data();
+  const std::uint8_t* split = plan.split.data();
+  const std::uint8_t* pair_masks = plan.pair_masks.data();
+  auto offsets = exec.template allocate<std::uint32_t>(pairs.count);
+  std::uint32_t* d_offsets = offsets.data();
+  exec.for_each("split offsets", pairs.count, [=] IRGRID_HD(std::size_t i) {
+    d_offsets[i] = split[node[i]] != 0 ? popcount8(pair_masks[i]) : 0;
+  });
+  // The plan checked the total against the budget, whose bound includes the 30-bit limit.
+  const std::uint32_t total =
+      exec.exclusive_scan("split offsets", d_offsets, d_offsets, pairs.count);
+  RefPairs<Exec> child_pairs{exec.template allocate<std::uint32_t>(total),
+                             exec.template allocate<std::uint32_t>(total), total};
+  std::uint32_t *cell_out = child_pairs.cell.data(), *tri_out = child_pairs.tri.data();
+  exec.for_each("split emit", pairs.count, [=] IRGRID_HD(std::size_t i) {
+    if (split[node[i]] == 0) return;
+    const std::uint32_t mask = pair_masks[i];
+    std::uint32_t out = d_offsets[i];
+    for (std::uint32_t bit = 0; bit < 8; ++bit)
+      if (mask >> bit & 1) cell_out[out] = child_base[node[i]] + bit, tri_out[out++] = tri[i];
+  });
+  release_buffer(offsets);
+  pairs = {};
+  // The children after their pairs: the nodes are fewer than the children, and the pairs
+  // are gone before the children are made.
   const std::int32_t half = std::int32_t(1) << (info.shift - level - 1);
   LevelNodes<Exec> children{exec.template allocate<Voxel>(plan.children),
                             exec.template allocate<std::uint32_t>(plan.children), plan.children};
   Voxel* child_lo = children.lo.data();
   std::uint32_t* child_top = children.top.data();
   const Voxel* lo = nodes.lo.data();
-  const std::uint32_t *top = nodes.top.data(), *child_base = plan.child_base.data();
-  const std::uint8_t* split = plan.split.data();
+  const std::uint32_t* top = nodes.top.data();
   exec.for_each("child nodes", nodes.count, [=] IRGRID_HD(std::size_t i) {
     if (!split[i]) return;
     for (std::uint32_t bit = 0; bit < 8; ++bit) {
@@ -429,50 +477,34 @@ std::pair<LevelNodes<Exec>, RefPairs<Exec>> split_level(Exec& exec, const GridIn
       child_top[child_base[i] + bit] = top[i];
     }
   });
-  const std::uint32_t *node = pairs.cell.data(), *tri = pairs.tri.data();
-  std::uint32_t selected = 0;
-  const auto picked = select_indices(
-      exec, "split pairs", pairs.count,
-      [=] IRGRID_HD(std::uint32_t i) { return split[node[i]] != 0; }, selected);
-  auto masks = exec.template allocate<std::uint32_t>(selected + 1);
-  auto offsets = exec.template allocate<std::uint32_t>(selected + 1);
-  std::uint32_t *d_masks = masks.data(), *d_offsets = offsets.data();
-  const std::uint32_t* d_picked = picked.data();
-  const std::uint8_t* pair_masks = plan.pair_masks.data();
-  exec.for_each("split masks", selected, [=] IRGRID_HD(std::size_t k) {
-    d_masks[k] = pair_masks[d_picked[k]];
-    d_offsets[k] = popcount8(d_masks[k]);
-  });
-  // The plan checked the total against the budget, whose bound includes the 30-bit limit.
-  const std::uint32_t total = exec.exclusive_scan("split offsets", d_offsets, d_offsets, selected);
-  RefPairs<Exec> child_pairs{exec.template allocate<std::uint32_t>(total),
-                             exec.template allocate<std::uint32_t>(total), total};
-  std::uint32_t *cell_out = child_pairs.cell.data(), *tri_out = child_pairs.tri.data();
-  exec.for_each("split emit", selected, [=] IRGRID_HD(std::size_t k) {
-    const std::uint32_t i = d_picked[k];
-    std::uint32_t out = d_offsets[k];
-    for (std::uint32_t bit = 0; bit < 8; ++bit)
-      if (d_masks[k] >> bit & 1) cell_out[out] = child_base[node[i]] + bit, tri_out[out++] = tri[i];
-  });
+  release_buffer(nodes.lo);
+  release_buffer(nodes.top);
   return {std::move(children), std::move(child_pairs)};
 }
 
 /// Runs the octree subdivision from the top level down, at most to depth info.shift, and stops
-/// at the last level whose octrees fit `budget` (construction_budget).
+/// at the last level whose octrees fit `budget` (construction_budget). Without `with_cells`,
+/// the leaves are counted and named but not written as cells.
 template <typename Exec>
 OctreeLevels<Exec> build_octree_levels(Exec& exec, const GridInfo& info,
                                        const TriangleVertices* triangles, RefPairs<Exec> pairs,
-                                       const OctreeRule& rule, std::uint64_t budget) {
+                                       const OctreeRule& rule, std::uint64_t budget,
+                                       bool with_cells = true) {
   OctreeLevels<Exec> out;
   LevelNodes<Exec> nodes = top_level_nodes(exec, info);
   for (std::int32_t level = 0;; ++level) {
-    const LevelPlan<Exec> plan =
+    LevelPlan<Exec> plan =
         plan_level(exec, info, triangles, nodes, pairs, rule, level, out, budget);
     out.budget_limited |= plan.budget_stop;
     const std::uint32_t first_cell = out.num_cells;
-    emit_level_entries_and_cells(exec, info, nodes, plan, level, out);
+    emit_level_entries_and_cells(exec, info, nodes, plan, level, with_cells, out);
+    if (plan.children == 0) {
+      nodes = {};
+      keep_all_pairs(exec, pairs, plan, first_cell, out);
+      break;
+    }
     keep_leaf_pairs(exec, pairs, plan, first_cell, out);
-    if (plan.children == 0) break;
+    release_buffer(plan.leaf_index);
     auto next = split_level(exec, info, nodes, pairs, plan, level);
     nodes = std::move(next.first);
     pairs = std::move(next.second);
