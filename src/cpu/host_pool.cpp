@@ -21,14 +21,17 @@ std::size_t alignment_for(std::size_t class_size) {
   return class_size >= kHugePageBytes ? kHugePageBytes : kSmallAlignment;
 }
 
-/// Bytes of small blocks given back to malloc after which the pool asks it to return the free
-/// pages of its heaps to the system (return_heap_pages).
+/// Bytes of blocks given back to malloc after which the pool asks it to return the free pages
+/// of its heaps to the system (return_heap_pages).
 constexpr std::uint64_t kHeapReturnBytes = std::uint64_t(256) << 20;
 
-/// Blocks under the huge-page size live in malloc's heaps, which give the system back only
-/// their top: the free pages below stay resident. The depth-first octrees of a 10M-triangle
-/// hairball left 4.8 GiB of them behind when the build went on level by level, on top of the
-/// budget the pool holds (glibc's malloc_trim also releases free pages inside the heaps).
+/// malloc's heaps give the system back only their top: the free pages below stay resident.
+/// Small blocks always live there, and so do large ones: glibc maps a block of its own only
+/// above its mmap threshold, which rises to the size of each mapped block freed (up to
+/// 32 MiB). The depth-first octrees of a 10M-triangle hairball left 4.8 GiB of small blocks
+/// behind when the build went on level by level; the large blocks the pool's bound sends back
+/// kept Crown's process at 821-826 MiB instead of 681-686 (Intel Xeon VM, 2026-12-07). glibc's
+/// malloc_trim also releases free pages inside the heaps.
 void return_heap_pages() noexcept {
 #if defined(__GLIBC__)
   malloc_trim(0);
@@ -53,7 +56,6 @@ void* HostPool::system_allocate(std::size_t class_size) {
 
 void HostPool::system_release(void* pointer, std::size_t class_size) noexcept {
   ::operator delete(pointer, std::align_val_t(alignment_for(class_size)));
-  if (class_size >= kHugePageBytes) return;
   heap_released_ += class_size;
   if (heap_released_ >= kHeapReturnBytes) {
     heap_released_ = 0;

@@ -21,15 +21,15 @@ namespace irgrid {
 /// Sponza build's time before this reuse). Blocks more than twice as large stay cached for requests
 /// of their size. With a cache limit (set_cache_limit), the blocks the pool holds, given out and
 /// cached, stay within it wherever caching is what would pass it: the least recently freed cached
-/// blocks go back to the system first. Blocks under the huge-page size come from malloc, whose
-/// heaps keep the pages of freed blocks resident: after giving back 256 MiB of them, and on trim,
-/// the pool asks malloc to return its free pages (glibc's malloc_trim). Blocks stay on the pages
-/// the system gives (4 KiB where transparent huge pages are on request only, as on Debian): most
-/// are build temporaries written once, and on a VM with free page reporting a fresh huge page cost
-/// 2.6–3.0 ms per MiB to fault in against 0.4 for 4 KiB pages (Intel Xeon VM, 2026-12-06), a
-/// tenth to a fifth of Sponza's build; the finished grid's arrays move onto huge pages at the end
-/// (collapse_into_huge_pages), which traversal needs. Thread-safe: the octree builder's threads
-/// grow their buffers concurrently.
+/// blocks go back to the system first. Blocks come from malloc, whose heaps keep the pages of
+/// freed blocks resident (large blocks too, below glibc's sliding mmap threshold): after giving
+/// back 256 MiB of blocks, and on trim, the pool asks malloc to return its free pages (glibc's
+/// malloc_trim). Blocks stay on the pages the system gives (4 KiB where transparent huge pages are
+/// on request only, as on Debian): most are build temporaries written once, and on a VM with free
+/// page reporting a fresh huge page cost 2.6–3.0 ms per MiB to fault in against 0.4 for 4 KiB
+/// pages (Intel Xeon VM, 2026-12-06), a tenth to a fifth of Sponza's build; the finished grid's
+/// arrays move onto huge pages at the end (collapse_into_huge_pages), which traversal needs.
+/// Thread-safe: the octree builder's threads grow their buffers concurrently.
 class HostPool {
  public:
   HostPool() = default;
@@ -95,7 +95,7 @@ class HostPool {
   /// The most bytes given out at once since construction, and whether it bounds the pool.
   std::uint64_t given_peak_ = 0;
   bool bound_to_peak_ = false;
-  /// Bytes of small blocks given back since malloc last returned its free pages.
+  /// Bytes of blocks given back since malloc last returned its free pages.
   std::uint64_t heap_released_ = 0;
 };
 
