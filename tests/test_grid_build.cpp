@@ -580,23 +580,38 @@ TEST(GridBuild, NarrowAndFullCellsOfTheDepthFirstAssemblyAreTheSame) {
 TEST(GridBuild, WalkingTheLevelsAssemblesTheGridSortingThemDoes) {
   // The CPU's budget-limited path: the level-by-level octrees without cells, assembled by
   // walking the map (cells_by_walk.h), in both cell forms, against the GPU's assembly (a sort of
-  // the levels' cells and of all pairs). Budgets that stop the octrees at several levels.
-  for (const char* spec :
-       {"builtin:teapot-stadium:3000", "builtin:hairball:5000", "builtin:overlap:2000"}) {
-    DepthFirstInputs in(spec);
+  // the levels' cells and of all pairs). Budgets that stop the octrees at several levels; empty
+  // nodes that split (the two-level grid's rule); a single top cell.
+  BuildConfig one_top_cell;
+  one_top_cell.lambda1 = 1e-6f;
+  struct Case {
+    const char* spec;
+    BuildConfig config;
+    bool split_empty;
+  };
+  bool some_limited = false;
+  for (const Case& c :
+       {Case{"builtin:teapot-stadium:3000", {}, false}, Case{"builtin:hairball:5000", {}, false},
+        Case{"builtin:overlap:2000", {}, false}, Case{"builtin:hairball:5000", {}, true},
+        Case{"builtin:hairball:5000", one_top_cell, false}}) {
+    DepthFirstInputs in(c.spec, c.config);
     ASSERT_TRUE(depth_first_applies(in.grid.info));
     ASSERT_TRUE(fits_compact_cells(in.grid.info));
-    bool some_limited = false;
+    if (c.config.lambda1 == one_top_cell.lambda1) ASSERT_EQ(in.top_cells(), 1u);
+    OctreeRule rule = in.rule();
+    rule.split_empty = c.split_empty;
     for (const std::uint64_t budget :
          {std::uint64_t(1) << 40, std::uint64_t(1) << 22, std::uint64_t(1) << 20}) {
-      SCOPED_TRACE(::testing::Message() << spec << ", budget " << budget);
+      SCOPED_TRACE(::testing::Message()
+                   << c.spec << ", split_empty " << c.split_empty << ", top cells "
+                   << in.top_cells() << ", budget " << budget);
       const auto levels = [&](bool with_cells) {
         RefPairs<CpuExecutor> copy{in.exec.allocate<std::uint32_t>(in.pairs.count),
                                    in.exec.allocate<std::uint32_t>(in.pairs.count), in.pairs.count};
         std::copy_n(in.pairs.cell.data(), in.pairs.count, copy.cell.data());
         std::copy_n(in.pairs.tri.data(), in.pairs.count, copy.tri.data());
         return build_octree_levels(in.exec, in.grid.info, in.grid.triangles.data(), std::move(copy),
-                                   in.rule(), budget, with_cells);
+                                   rule, budget, with_cells);
       };
       GridArrays<CpuExecutor> sorted = in.grid, narrow = in.grid, wide = in.grid;
       auto with_cells = levels(true);
@@ -605,6 +620,11 @@ TEST(GridBuild, WalkingTheLevelsAssemblesTheGridSortingThemDoes) {
       some_limited |= without_cells.budget_limited;
       EXPECT_TRUE(without_cells.cells.empty());
       EXPECT_EQ(without_cells.num_cells, sorted.info.num_cells);
+      {
+        auto cellless = levels(false);
+        GridArrays<CpuExecutor> unsorted = in.grid;
+        EXPECT_THROW(assemble_grid(in.exec, cellless, unsorted), Error) << "no cells to sort";
+      }
       assemble_grid_by_walk(in.exec, without_cells, narrow);
       EXPECT_TRUE(narrow.cells.empty());
       ASSERT_EQ(narrow.narrow_cells.size(), narrow.info.num_cells);
@@ -615,8 +635,8 @@ TEST(GridBuild, WalkingTheLevelsAssemblesTheGridSortingThemDoes) {
       EXPECT_TRUE(wide.narrow_cells.empty());
       testing::expect_same_grid(sorted, wide);
     }
-    EXPECT_TRUE(some_limited);
   }
+  EXPECT_TRUE(some_limited);
 }
 
 TEST(GridLimits, ALevelStopsItsTestsEarlyWithTheSameOctrees) {

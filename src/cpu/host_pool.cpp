@@ -25,6 +25,10 @@ std::size_t alignment_for(std::size_t class_size) {
 /// of its heaps to the system (return_heap_pages).
 constexpr std::uint64_t kHeapReturnBytes = std::uint64_t(256) << 20;
 
+/// glibc's highest mmap threshold on 64-bit systems: larger blocks are always mapped on their
+/// own, and freeing them unmaps them.
+constexpr std::size_t kAlwaysMappedBytes = std::size_t(32) << 20;
+
 /// malloc's heaps give the system back only their top: the free pages below stay resident.
 /// Small blocks always live there, and so do large ones: glibc maps a block of its own only
 /// above its mmap threshold, which rises to the size of each mapped block freed (up to
@@ -56,6 +60,7 @@ void* HostPool::system_allocate(std::size_t class_size) {
 
 void HostPool::system_release(void* pointer, std::size_t class_size) noexcept {
   ::operator delete(pointer, std::align_val_t(alignment_for(class_size)));
+  if (class_size > kAlwaysMappedBytes) return;
   heap_released_ += class_size;
   if (heap_released_ >= kHeapReturnBytes) {
     heap_released_ = 0;

@@ -14,6 +14,7 @@
 #include "core/construction/narrow_cell.h"
 #include "core/construction/octree_levels.h"
 #include "core/release_buffer.h"
+#include "irgrid/error.h"
 
 namespace irgrid {
 
@@ -124,6 +125,8 @@ typename Exec::template Buffer<std::uint32_t> sort_references(Exec& exec, RefPai
 /// hold the grid twice (`levels` keeps only its counts).
 template <typename Exec>
 void assemble_grid(Exec& exec, OctreeLevels<Exec>& levels, GridArrays<Exec>& grid) {
+  if (levels.cells.size() != levels.entries.size())
+    throw Error(ErrorCode::internal, "assemble_grid: octree levels built without their cells");
   take_level_entries(exec, levels, grid);
   grid.cells = concatenate<Exec, Cell>(exec, "concatenate cells", levels.cells, levels.num_cells);
   levels.cells.clear();

@@ -20,6 +20,7 @@
 #include "core/construction/cells.h"
 #include "core/construction/octree_walk.h"
 #include "core/release_buffer.h"
+#include "irgrid/error.h"
 
 namespace irgrid {
 
@@ -65,6 +66,8 @@ template <typename Exec>
 void assemble_grid_by_walk(Exec& exec, OctreeLevels<Exec>& levels, GridArrays<Exec>& grid,
                            bool allow_narrow = true) {
   const GridInfo& info = grid.info;
+  if (!depth_first_applies(info))
+    throw Error(ErrorCode::internal, "assemble_grid_by_walk: corners past the Morton key");
   const std::uint32_t n = std::uint32_t(info.top_dims[0]) * std::uint32_t(info.top_dims[1]) *
                           std::uint32_t(info.top_dims[2]);
   const std::uint32_t num_cells = levels.num_cells, num_refs = levels.num_refs;
@@ -91,7 +94,9 @@ void assemble_grid_by_walk(Exec& exec, OctreeLevels<Exec>& levels, GridArrays<Ex
     {
       const auto order = top_cells_in_morton_order(exec, info);
       auto scratch = exec.template allocate<std::uint32_t>(n);
-      bases_in_order(exec, order.data(), d_leaves, scratch.data(), d_cell_base, n);
+      if (bases_in_order(exec, order.data(), d_leaves, scratch.data(), d_cell_base, n) != num_cells)
+        throw Error(ErrorCode::internal,
+                    "assemble_grid_by_walk: the map's leaves are not its cells");
     }
     exec.for_each("walk leaves", n, [&, d_cell_base](std::size_t t) {
       std::uint32_t k = d_cell_base[t];

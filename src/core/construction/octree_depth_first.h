@@ -34,12 +34,6 @@
 
 namespace irgrid {
 
-/// Whether build_top_cell_octrees gives the grid the level-by-level build gives: corners must
-/// fit the 21 bits per axis of the Morton key, so that no two cells tie in cell_order.h.
-inline bool depth_first_applies(const GridInfo& info) {
-  return morton_bits(info) <= 21;
-}
-
 /// What one chunk of consecutive top cells (x-fastest order) built, with local indices: an inner
 /// entry at level L names a slot of the chunk's level L + 1, a leaf entry a cell counted from its
 /// own top cell's first, and a cell's first reference counts from its top cell's first. Slot k of

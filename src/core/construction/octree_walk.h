@@ -18,6 +18,13 @@
 
 namespace irgrid {
 
+/// Whether walking the octrees meets the leaves in cell_order.h's order (the host's assemblies,
+/// build_top_cell_octrees and assemble_grid_by_walk, give the level-by-level build's grid):
+/// corners must fit the 21 bits per axis of the Morton key, so that no two cells tie.
+inline bool depth_first_applies(const GridInfo& info) {
+  return morton_bits(info) <= 21;
+}
+
 /// The top cells (x-fastest indices) in the Morton order of their corners.
 template <typename Exec>
 typename Exec::template Buffer<std::uint32_t> top_cells_in_morton_order(Exec& exec,
