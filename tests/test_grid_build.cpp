@@ -245,6 +245,33 @@ TEST_P(GridBuild, RangesFollowTheCellOrderAndCompressLosslessly) {
   }
 }
 
+TEST_P(GridBuild, CompressedCellsExpandToTheSameBoxes) {
+  // build_grid with a compact output expands the 16-byte cells in place of the 32-byte ones
+  // (and drops those): the boxes must be the full cells' expanded, compressed afterwards.
+  BuildConfig subset;
+  subset.partial_expansion = false;
+  for (const BuildConfig& config : {BuildConfig{}, subset}) {
+    const Scene scene = load_scene(GetParam());
+    const auto wide = build_test_grid(scene, config);
+    ASSERT_TRUE(fits_compact_cells(wide.info));
+    CpuExecutor exec;
+    CpuExecutor::Buffer<CompactCell> expected, compact;
+    compress_cells(exec, wide, expected);
+    GridArrays<CpuExecutor> grid;
+    gather_triangles(scene.mesh(), grid.triangles);
+    PhaseTimes phases;
+    build_grid(exec, grid, config, phases, {}, nullptr, &compact);
+    EXPECT_TRUE(grid.cells.empty());
+    EXPECT_TRUE(phases[std::size_t(BuildPhase::compress)].has_value());
+    ASSERT_EQ(compact.size(), expected.size());
+    EXPECT_EQ(std::memcmp(compact.data(), expected.data(), compact.size() * sizeof(CompactCell)),
+              0);
+    // Everything else is the same too (the wide cells stand in for the dropped ones).
+    grid.cells.assign(wide.cells.begin(), wide.cells.end());
+    testing::expect_same_grid(wide, grid);
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Builtin, GridBuild, ::testing::ValuesIn(kScenes), [](const auto& info) {
   std::string name = info.param.substr(8);
   for (char& c : name)

@@ -68,7 +68,6 @@ class GridCpu final : public GridAcceleratorBase {
     if (!grid_.triangles.empty()) {
       build_grid_and_compress(exec, grid_, compact_cells_, options_.grid, info_.phase_ms,
                               options_.on_phase, &phase_peaks);
-      if (!compact_cells_.empty()) release_buffer(grid_.cells);
     }
     move_onto_huge_pages();
     info_.build_ms = elapsed_ms<std::chrono::steady_clock>(start);

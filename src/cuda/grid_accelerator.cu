@@ -109,7 +109,6 @@ class GridCuda final : public GridAcceleratorBase {
     if (!grid_.triangles.empty()) {
       build_on_device(exec_, grid_, compact_cells_, options_.grid, info_.phase_ms,
                       options_.on_phase, &phase_peaks);
-      if (!compact_cells_.empty()) grid_.cells.reset();
     }
     info_.build_ms = elapsed_ms<std::chrono::steady_clock>(start);
     // The pool's peaks count every block it gave out, the triangles' included.

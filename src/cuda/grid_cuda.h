@@ -14,7 +14,7 @@ namespace irgrid {
 struct HostGridArrays {
   GridInfo info{};
   std::vector<Entry> entries;
-  std::vector<Cell> cells;                 ///< the full cells, before compression
+  std::vector<Cell> cells;                 ///< the full cells; empty when compact_cells hold them
   std::vector<CompactCell> compact_cells;  ///< empty unless config.compress and they fit
   std::vector<std::uint32_t> refs;
   std::vector<std::uint8_t> empty_radii;  ///< empty unless the grid skips empty space

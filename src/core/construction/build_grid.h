@@ -13,6 +13,7 @@
 
 #include "core/construction/cells.h"
 #include "core/construction/cells_by_walk.h"
+#include "core/construction/compact_cells.h"
 #include "core/construction/compact_map.h"
 #include "core/construction/empty_space.h"
 #include "core/construction/expand.h"
@@ -235,10 +236,15 @@ std::int32_t build_initial_grid(Exec& exec, GridArrays<Exec>& grid, const BuildC
 /// Builds the grid over the triangles already gathered into grid.triangles; adds the time of
 /// each phase to phases_ms, tells on_phase (when set) as each one ends and, with phase_peaks,
 /// records the executor's memory peak of each phase there (PhaseClock).
+/// With `compact` (not null) and a grid that fits them (fits_compact_cells), the cells are
+/// compressed (compress_cells: the compress phase, before expansion) into *compact, grid.cells
+/// is released and the 16-byte cells expand; otherwise *compact is left empty and grid.cells
+/// expand. Both give the same boxes.
 template <typename Exec>
 void build_grid(Exec& exec, GridArrays<Exec>& grid, const BuildConfig& config,
                 PhaseTimes& phases_ms, const PhaseObserver& on_phase = {},
-                PhaseBytes* phase_peaks = nullptr) {
+                PhaseBytes* phase_peaks = nullptr,
+                typename Exec::template Buffer<CompactCell>* compact = nullptr) {
   PhaseClock clock(exec, phases_ms, on_phase, phase_peaks);
   const std::int32_t deepest_lambda2 = build_initial_grid(exec, grid, config, clock);
   // Merging and expansion (paper §3.2-3.3) only for the irregular grid: the uniform and
@@ -249,11 +255,22 @@ void build_grid(Exec& exec, GridArrays<Exec>& grid, const BuildConfig& config,
   clock.lap(BuildPhase::merge);
   compact_map(exec, grid);
   clock.lap(BuildPhase::voxel_map);
+  const bool compressed = compact && fits_compact_cells(grid.info);
+  if (compressed) {
+    compress_cells(exec, grid, *compact);
+    release_buffer(grid.cells);
+    clock.lap(BuildPhase::compress);
+  }
   // Partial growth moves in voxels of the λ2 depth: finer steps, which count-split cells bring
   // to the whole grid, cost twice the expansion work on Sponza for a few % fewer tests per ray.
   const std::int32_t growth_quantum = std::int32_t(1) << (grid.info.shift - deepest_lambda2);
-  if (irregular)
-    expand_cells(exec, grid, config.expansion_passes, config.partial_expansion, growth_quantum);
+  if (irregular) {
+    if (compressed)
+      expand_compact_cells(exec, grid, *compact, config.expansion_passes, config.partial_expansion,
+                           growth_quantum);
+    else
+      expand_cells(exec, grid, config.expansion_passes, config.partial_expansion, growth_quantum);
+  }
   clock.lap(BuildPhase::expansion);
 }
 

@@ -29,23 +29,36 @@ struct AxisExtent {
 };
 static_assert(sizeof(AxisExtent) == 8);
 
-/// Grows every cell along kAxis (both directions): the new extents of the boxes in grid.cells
-/// go to `out`, then, once every cell has read the old boxes, into the boxes.
+/// A cell's new extent along kAxis, in either cell form.
+template <int kAxis>
+IRGRID_HD inline void set_extent(Cell& c, AxisExtent e) {
+  c.lo[kAxis] = e.lo;
+  c.hi[kAxis] = e.hi;
+}
+template <int kAxis>
+IRGRID_HD inline void set_extent(CompactCell& c, AxisExtent e) {
+  c.lo[kAxis] = std::uint16_t(e.lo);
+  c.hi[kAxis] = std::uint16_t(e.hi);
+}
+
+/// Grows every cell along kAxis (both directions): the new extents of the boxes in `cells`
+/// (grid.info.num_cells of them, Cell or CompactCell) go to `out`, then, once every cell has
+/// read the old boxes, into the boxes.
 /// `can_grow` holds one bit per face (bit 2 * kAxis for the lower face, 2 * kAxis + 1 for the
 /// upper one) and cell; a face whose bit is clear stays where it is, and the bit is cleared when
 /// the face did not grow by the full depth of its neighbours (blocked by the grid boundary or by
 /// a list): the same neighbours still own the voxels past that face in later passes, so it would
 /// mostly be blocked again. The bits only save work: clearing one never makes the grid wrong.
-template <int kAxis, typename Exec>
-void expand_axis(Exec& exec, GridArrays<Exec>& grid, AxisExtent* out, std::uint8_t* can_grow,
-                 bool partial, std::int32_t growth_quantum) {
-  const ExpandView view{grid.info,        grid.entries.data(),   grid.cells.data(),
-                        grid.refs.data(), grid.triangles.data(), partial,
-                        growth_quantum};
+template <int kAxis, typename Exec, typename StoredCell>
+void expand_axis(Exec& exec, const GridArrays<Exec>& grid, StoredCell* cells, AxisExtent* out,
+                 std::uint8_t* can_grow, bool partial, std::int32_t growth_quantum) {
+  const ExpandView<StoredCell> view{grid.info,        grid.entries.data(),   cells,
+                                    grid.refs.data(), grid.triangles.data(), partial,
+                                    growth_quantum};
   constexpr auto down_bit = std::uint8_t(1u << (2 * kAxis)),
                  up_bit = std::uint8_t(2u << (2 * kAxis));
   exec.for_each("expand cells", grid.info.num_cells, [=] IRGRID_HD(std::size_t i) {
-    const Cell snapshot = view.cells[i];
+    const Cell snapshot = view.cell(std::uint32_t(i));
     AxisExtent extent{snapshot.lo[kAxis], snapshot.hi[kAxis]};
     std::uint8_t faces = can_grow[i];
     // Both directions read the snapshot box; the two slabs are disjoint and each is safe on its
@@ -64,11 +77,35 @@ void expand_axis(Exec& exec, GridArrays<Exec>& grid, AxisExtent* out, std::uint8
     out[i] = extent;
   });
   // Every cell read the snapshot: the boxes take their new extents now.
-  Cell* cells = grid.cells.data();
-  exec.for_each("expand apply", grid.info.num_cells, [=] IRGRID_HD(std::size_t i) {
-    cells[i].lo[kAxis] = out[i].lo;
-    cells[i].hi[kAxis] = out[i].hi;
-  });
+  exec.for_each("expand apply", grid.info.num_cells,
+                [=] IRGRID_HD(std::size_t i) { set_extent<kAxis>(cells[i], out[i]); });
+}
+
+/// expand_cells over the boxes in `cells`.
+template <typename Exec, typename StoredCell>
+void expand_boxes(Exec& exec, const GridArrays<Exec>& grid, StoredCell* cells, int passes,
+                  bool partial, std::int32_t growth_quantum) {
+  const std::uint32_t count = grid.info.num_cells;
+  if (passes <= 0 || count == 0) return;
+  auto extents = exec.template allocate<AxisExtent>(count);
+  auto can_grow = exec.template allocate<std::uint8_t>(count);
+  std::uint8_t* d_can_grow = can_grow.data();
+  exec.for_each("expand flags", count, [=] IRGRID_HD(std::size_t i) { d_can_grow[i] = 0x3f; });
+  const auto grow_along = [&](auto axis) {
+    expand_axis<decltype(axis)::value>(exec, grid, cells, extents.data(), d_can_grow, partial,
+                                       growth_quantum);
+  };
+  for (int pass = 0; pass < passes; ++pass) {
+    grow_along(std::integral_constant<int, 0>());
+    grow_along(std::integral_constant<int, 1>());
+    grow_along(std::integral_constant<int, 2>());
+    // No face left that may grow: later passes would copy every box unchanged (a huge
+    // --expansion-passes once ran for minutes doing only that).
+    const std::uint8_t any_face =
+        exec.reduce("expand any face", d_can_grow, count, std::uint8_t(0),
+                    [] IRGRID_HD(std::uint8_t a, std::uint8_t b) { return std::uint8_t(a | b); });
+    if (any_face == 0) break;
+  }
 }
 
 }  // namespace expand_detail
@@ -87,27 +124,16 @@ void expand_axis(Exec& exec, GridArrays<Exec>& grid, AxisExtent* out, std::uint8
 template <typename Exec>
 void expand_cells(Exec& exec, GridArrays<Exec>& grid, int passes, bool partial,
                   std::int32_t growth_quantum = 1) {
-  const std::uint32_t count = grid.info.num_cells;
-  if (passes <= 0 || count == 0) return;
-  auto extents = exec.template allocate<expand_detail::AxisExtent>(count);
-  auto can_grow = exec.template allocate<std::uint8_t>(count);
-  std::uint8_t* d_can_grow = can_grow.data();
-  exec.for_each("expand flags", count, [=] IRGRID_HD(std::size_t i) { d_can_grow[i] = 0x3f; });
-  const auto grow_along = [&](auto axis) {
-    expand_detail::expand_axis<decltype(axis)::value>(exec, grid, extents.data(), d_can_grow,
-                                                      partial, growth_quantum);
-  };
-  for (int pass = 0; pass < passes; ++pass) {
-    grow_along(std::integral_constant<int, 0>());
-    grow_along(std::integral_constant<int, 1>());
-    grow_along(std::integral_constant<int, 2>());
-    // No face left that may grow: later passes would copy every box unchanged (a huge
-    // --expansion-passes once ran for minutes doing only that).
-    const std::uint8_t any_face =
-        exec.reduce("expand any face", d_can_grow, count, std::uint8_t(0),
-                    [] IRGRID_HD(std::uint8_t a, std::uint8_t b) { return std::uint8_t(a | b); });
-    if (any_face == 0) break;
-  }
+  expand_detail::expand_boxes(exec, grid, grid.cells.data(), passes, partial, growth_quantum);
+}
+
+/// expand_cells on the same grid's cells in the compressed form (compress_cells, with their
+/// sentinel) instead of grid.cells, which it neither reads nor changes: the same boxes result.
+template <typename Exec>
+void expand_compact_cells(Exec& exec, const GridArrays<Exec>& grid,
+                          typename Exec::template Buffer<CompactCell>& compact, int passes,
+                          bool partial, std::int32_t growth_quantum = 1) {
+  expand_detail::expand_boxes(exec, grid, compact.data(), passes, partial, growth_quantum);
 }
 
 }  // namespace irgrid
