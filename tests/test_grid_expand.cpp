@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <limits>
@@ -313,6 +314,81 @@ TEST(GridExpandFace, PartialGrowthStopsBeforeTheFirstExtraTriangle) {
   const float nan = std::numeric_limits<float>::quiet_NaN();
   EXPECT_EQ(up({{nan, nan, nan}, {nan, nan, nan}}, 10), 0);
   EXPECT_EQ(down({{nan, nan, nan}, {nan, nan, nan}}, 10), 0);
+}
+
+/// growth_before_planes against growth_before_box for both faces of c on kAxis that may grow
+/// (inside the grid), with limits within the room past each face.
+template <int kAxis>
+void expect_planes_answer_as_the_box(const GridInfo& info, const Cell& c, const BoxF& box,
+                                     Pcg32& rng) {
+  using namespace expand_detail;
+  const TrianglePlanes planes = triangle_planes(info, StoredBounds{box});
+  const std::int32_t room_up = info.virtual_dims[kAxis] - c.hi[kAxis], room_down = c.lo[kAxis];
+  if (room_up > 0) {
+    const std::int32_t limit = 1 + std::int32_t(rng.next_u32() % std::uint32_t(room_up));
+    EXPECT_EQ((growth_before_planes<kAxis, +1>(c, planes, limit)),
+              (growth_before_box<kAxis, +1>(info, c, StoredBounds{box}, limit)))
+        << "axis " << kAxis << " up, limit " << limit;
+  }
+  if (room_down > 0) {
+    const std::int32_t limit = 1 + std::int32_t(rng.next_u32() % std::uint32_t(room_down));
+    EXPECT_EQ((growth_before_planes<kAxis, -1>(c, planes, limit)),
+              (growth_before_box<kAxis, -1>(info, c, StoredBounds{box}, limit)))
+        << "axis " << kAxis << " down, limit " << limit;
+  }
+}
+
+TEST(GridExpandFace, TrianglePlanesGiveTheBoxTestsAnswers) {
+  // The expansion's per-triangle planes must reproduce growth_before_box exactly (the grids stay
+  // bit for bit the same): boxes near, on and between planes of voxels whose world positions
+  // round (an offset origin, non-power-of-two sizes), boxes past the grid, NaN boxes.
+  Pcg32 rng;
+  rng.seed(11);
+  GridInfo info{};
+  info.box_lo = {-3.3f, 1000.1f, 0.7f};
+  info.voxel_size = {0.37f, 0.013f, 1.9f};
+  const std::int32_t dims[3] = {53, 900, 17};
+  for (int a = 0; a < 3; ++a) {
+    info.inv_voxel_size[a] = 1.f / info.voxel_size[a];
+    info.virtual_dims[a] = dims[a];
+    info.box_hi[a] = info.box_lo[a] + float(dims[a]) * info.voxel_size[a];
+  }
+  info.padding = 1e-4f;
+  const auto coordinate = [&](int a) {
+    // A plane's world position, nudged by a few multiples of the margin or at random.
+    const std::int32_t plane = std::int32_t(rng.next_u32() % std::uint32_t(dims[a] + 3)) - 1;
+    const float at = voxel_to_world(info, a, plane);
+    switch (rng.next_u32() % 3) {
+      case 0:
+        return at + info.padding * (float(int(rng.next_u32() % 9)) - 4.f) * 0.5f;
+      case 1:
+        return std::nextafter(at, rng.next_u32() % 2 ? 1e9f : -1e9f);
+      default:
+        return at + rng.next_float() * info.voxel_size[a] * 3.f;
+    }
+  };
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (int k = 0; k < 20000; ++k) {
+    BoxF box;
+    for (int a = 0; a < 3; ++a) {
+      const float p = coordinate(a), q = coordinate(a);
+      box.lo[a] = std::min(p, q);
+      box.hi[a] = std::max(p, q);
+    }
+    if (k % 500 == 0) box.lo[k / 500 % 3] = nan;
+    if (k % 700 == 0) box.hi[k / 700 % 3] = nan;
+    Cell c{};
+    for (int a = 0; a < 3; ++a) {
+      const std::int32_t lo = std::int32_t(rng.next_u32() % std::uint32_t(dims[a]));
+      c.lo[a] = lo;
+      c.hi[a] = lo + 1 + std::int32_t(rng.next_u32() % std::uint32_t(dims[a] - lo));
+    }
+    SCOPED_TRACE(::testing::Message() << "case " << k);
+    expect_planes_answer_as_the_box<0>(info, c, box, rng);
+    expect_planes_answer_as_the_box<1>(info, c, box, rng);
+    expect_planes_answer_as_the_box<2>(info, c, box, rng);
+    if (HasFailure()) return;
+  }
 }
 
 /// Mean cells visited and triangles tested per ray.

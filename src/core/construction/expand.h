@@ -51,10 +51,11 @@ IRGRID_HD inline void set_extent(CompactCell& c, AxisExtent e) {
 /// mostly be blocked again. The bits only save work: clearing one never makes the grid wrong.
 template <int kAxis, typename Exec, typename StoredCell>
 void expand_axis(Exec& exec, const GridArrays<Exec>& grid, StoredCell* cells, AxisExtent* out,
-                 std::uint8_t* can_grow, bool partial, std::int32_t growth_quantum) {
+                 std::uint8_t* can_grow, const TrianglePlanes* planes, bool partial,
+                 std::int32_t growth_quantum) {
   const ExpandView<StoredCell> view{grid.info,        grid.entries.data(),   cells,
-                                    grid.refs.data(), grid.triangles.data(), partial,
-                                    growth_quantum};
+                                    grid.refs.data(), grid.triangles.data(), planes,
+                                    partial,          growth_quantum};
   constexpr auto down_bit = std::uint8_t(1u << (2 * kAxis)),
                  up_bit = std::uint8_t(2u << (2 * kAxis));
   exec.for_each("expand cells", grid.info.num_cells, [=] IRGRID_HD(std::size_t i) {
@@ -91,9 +92,22 @@ void expand_boxes(Exec& exec, const GridArrays<Exec>& grid, StoredCell* cells, i
   auto can_grow = exec.template allocate<std::uint8_t>(count);
   std::uint8_t* d_can_grow = can_grow.data();
   exec.for_each("expand flags", count, [=] IRGRID_HD(std::size_t i) { d_can_grow[i] = 0x3f; });
+  // Partial growth settles extra triangles from their TrianglePlanes (16-bit planes: grids
+  // that fit compressed cells).
+  typename Exec::template Buffer<TrianglePlanes> planes;
+  if (partial && fits_compact_cells(grid.info)) {
+    planes = exec.template allocate<TrianglePlanes>(grid.triangles.size());
+    TrianglePlanes* d_planes = planes.data();
+    const TriangleVertices* d_triangles = grid.triangles.data();
+    const GridInfo info = grid.info;
+    exec.for_each("triangle planes", grid.triangles.size(), [=] IRGRID_HD(std::size_t t) {
+      d_planes[t] = triangle_planes(info, TriangleBounds{d_triangles[t]});
+    });
+  }
+  const TrianglePlanes* d_planes = planes.empty() ? nullptr : planes.data();
   const auto grow_along = [&](auto axis) {
-    expand_axis<decltype(axis)::value>(exec, grid, cells, extents.data(), d_can_grow, partial,
-                                       growth_quantum);
+    expand_axis<decltype(axis)::value>(exec, grid, cells, extents.data(), d_can_grow, d_planes,
+                                       partial, growth_quantum);
   };
   for (int pass = 0; pass < passes; ++pass) {
     grow_along(std::integral_constant<int, 0>());
