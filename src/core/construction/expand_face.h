@@ -100,18 +100,28 @@ IRGRID_HD inline std::int32_t far_plane(const GridInfo& info, std::int32_t face,
   return plane;
 }
 
+/// Whether a box whose lower bound on axis a is `lo` lies more than the padding above plane h
+/// (false for a NaN bound). apart_from_cross_section and triangle_planes share it, so that the
+/// planes give its answers exactly.
+IRGRID_HD inline bool apart_above_plane(const GridInfo& info, int a, float lo, std::int32_t h) {
+  return lo - 2.f * info.padding > voxel_to_world(info, a, h);
+}
+/// Whether a box whose upper bound on axis a is `hi` lies more than the padding below plane l.
+IRGRID_HD inline bool apart_below_plane(const GridInfo& info, int a, float hi, std::int32_t l) {
+  return hi + 2.f * info.padding < voxel_to_world(info, a, l);
+}
+
 /// Whether `box` lies more than the padding away from the cross-section of cell c's face on
-/// kAxis (then the triangle cannot reach the slab, however far it grows). Written so that a NaN
-/// box is never apart.
+/// kAxis (then the triangle cannot reach the slab, however far it grows). A NaN box is never
+/// apart.
 template <int kAxis, typename Bounds>
 IRGRID_HD inline bool apart_from_cross_section(const GridInfo& info, const Cell& c,
                                                const Bounds& box) {
-  const float margin = 2.f * info.padding;
   constexpr int kRow = (kAxis + 1) % 3, kColumn = (kAxis + 2) % 3;
-  return box.lo(kRow) - margin > voxel_to_world(info, kRow, c.hi[kRow]) ||
-         box.hi(kRow) + margin < voxel_to_world(info, kRow, c.lo[kRow]) ||
-         box.lo(kColumn) - margin > voxel_to_world(info, kColumn, c.hi[kColumn]) ||
-         box.hi(kColumn) + margin < voxel_to_world(info, kColumn, c.lo[kColumn]);
+  return apart_above_plane(info, kRow, box.lo(kRow), c.hi[kRow]) ||
+         apart_below_plane(info, kRow, box.hi(kRow), c.lo[kRow]) ||
+         apart_above_plane(info, kColumn, box.lo(kColumn), c.hi[kColumn]) ||
+         apart_below_plane(info, kColumn, box.hi(kColumn), c.lo[kColumn]);
 }
 
 /// The largest growth d in [0, limit] of cell c's face on kAxis (kDirection +1: the upper face,
@@ -135,8 +145,7 @@ IRGRID_HD inline std::int32_t growth_before_box(const GridInfo& info, const Cell
 /// along each axis, clamped to [0, dims] (16 bits: grids of compressed cells; a face's range
 /// lies within [0, dims], so clamping keeps every answer). An extra triangle then costs one
 /// 24-byte read and integer compares instead of its 36-byte vertices, bounded again for every
-/// face that meets it (Sponza bounds 10 M extra triangles): the expansion 10-13% shorter on
-/// Sponza and Crown, the same grids (model 167, 2026-12-07).
+/// face that meets it (Sponza bounds 10 M extra triangles; figures in docs/benchmarks.md).
 struct TrianglePlanes {
   std::uint16_t up[3];      ///< far_plane<a, +1> from face -1
   std::uint16_t down[3];    ///< far_plane<a, -1> from face dims + 1
@@ -160,25 +169,21 @@ IRGRID_HD inline TrianglePlanes triangle_planes(const GridInfo& info, const Boun
     const std::int32_t dims = info.virtual_dims[kAxis];
     planes.up[kAxis] = clamp_to_dims(far_plane<kAxis, +1>(info, -1, box, dims + 1), dims);
     planes.down[kAxis] = clamp_to_dims(far_plane<kAxis, -1>(info, dims + 1, box, dims + 2), dims);
-    const float margin = 2.f * info.padding;
-    const auto apart_below = [&](std::int32_t h) {
-      return box.lo(kAxis) - margin > voxel_to_world(info, kAxis, h);
-    };
-    const auto apart_above = [&](std::int32_t l) {
-      return box.hi(kAxis) + margin < voxel_to_world(info, kAxis, l);
-    };
-    const float lo_at = (box.lo(kAxis) - margin - info.box_lo[kAxis]) * info.inv_voxel_size[kAxis];
+    // before: the last plane the box's lower bound lies apart above; after: the first plane its
+    // upper bound lies apart below. Each starts where its bound falls and steps to the edge.
+    const float margin = 2.f * info.padding, lo = box.lo(kAxis), hi = box.hi(kAxis);
+    const float lo_at = (lo - margin - info.box_lo[kAxis]) * info.inv_voxel_size[kAxis];
     std::int32_t h = floor_to_int(min_fast(max_fast(lo_at, 0.f), float(dims)));
-    while (h < dims && apart_below(h + 1))
+    while (h < dims && apart_above_plane(info, kAxis, lo, h + 1))
       ++h;
-    while (h > 0 && !apart_below(h))
+    while (h > 0 && !apart_above_plane(info, kAxis, lo, h))
       --h;
     planes.before[kAxis] = std::uint16_t(h);
-    const float hi_at = (box.hi(kAxis) + margin - info.box_lo[kAxis]) * info.inv_voxel_size[kAxis];
+    const float hi_at = (hi + margin - info.box_lo[kAxis]) * info.inv_voxel_size[kAxis];
     std::int32_t l = floor_to_int(min_fast(max_fast(hi_at, 0.f), float(dims)));
-    while (l > 0 && apart_above(l - 1))
+    while (l > 0 && apart_below_plane(info, kAxis, hi, l - 1))
       --l;
-    while (l < dims && !apart_above(l))
+    while (l < dims && !apart_below_plane(info, kAxis, hi, l))
       ++l;
     planes.after[kAxis] = std::uint16_t(l);
   };
@@ -210,8 +215,7 @@ IRGRID_HD inline std::int32_t growth_before_planes(const Cell& c, const Triangle
 /// What the growth of all cells along one axis reads: the grid and ONE snapshot of the exit
 /// boxes, so that the result does not depend on the order in which cells are processed.
 /// StoredCell is Cell or CompactCell (with its sentinel; load_cell reads either): a neighbour's box
-/// and list cost one 16-byte read in the latter, the most frequent load of the phase (Crown's
-/// expansion 7-10% faster, model 167).
+/// and list cost one 16-byte read in the latter, the most frequent load of the phase.
 template <typename StoredCell>
 struct ExpandView {
   GridInfo info;
