@@ -14,6 +14,7 @@
 
 #include "cpu/host_memory.h"
 #include "cpu/memory_meter.h"
+#include "cpu/octant_masks.h"
 #include "cpu/parallel.h"
 #include "cpu/pooled_allocator.h"
 #include "cpu/radix_sort.h"
@@ -40,6 +41,14 @@ class CpuExecutor {
   /// buffers (core/construction/octree_depth_first.h); the result equals the level-by-level
   /// build's.
   static constexpr bool kDepthFirstOctrees = true;
+
+  /// masks[k] = child_overlap_mask(node, triangles[ids[k]]) for k < count, for the depth-first
+  /// octrees: many triangles at once in SIMD lanes (cpu/octant_masks.h), the same masks.
+  static void child_overlap_masks(const NodeSplit& node, const TriangleVertices* triangles,
+                                  std::uint64_t num_triangles, const std::uint32_t* ids,
+                                  std::uint32_t count, std::uint8_t* masks) {
+    irgrid::child_overlap_masks(node, triangles, num_triangles, ids, count, masks);
+  }
 
   /// Merging pairs the cells of each proposal chain by walking it from its head in one body
   /// (core/construction/merge_pairs.h, chain_parity), not by pointer jumping.

@@ -128,14 +128,14 @@ class TopCellBuilder {
       const NodeSplit split_node = node_split(info_, lo, half);
       if (masks_.size() < mask_begin + count) masks_.resize(2 * (mask_begin + count));
       masks_top_ = mask_begin + count;
+      std::uint8_t* masks = masks_.data() + mask_begin;
+      Exec::child_overlap_masks(split_node, triangles_, info_.num_triangles,
+                                lists_.data() + list_begin, count, masks);
       std::uint64_t child_refs = 0;
       std::uint32_t folded = kMasksFolded;
       for (std::uint32_t k = 0; k < count; ++k) {
-        const std::uint32_t mask =
-            child_overlap_mask(split_node, triangles_[lists_[list_begin + k]]);
-        masks_[mask_begin + k] = std::uint8_t(mask);
-        child_refs += popcount8(mask);
-        folded &= fold_mask(mask);
+        child_refs += popcount8(masks[k]);
+        folded &= fold_mask(masks[k]);
       }
       split = rule_.decide(level, top_depth_, count, child_refs, masks_differ(folded)) != kNoSplit;
     }

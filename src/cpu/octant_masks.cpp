@@ -1,0 +1,25 @@
+// cpu/octant_masks.cpp: which lanes child_overlap_masks runs in. Compiled for the baseline
+// target; the lanes live in octant_masks_avx2.cpp and octant_masks_avx512.cpp.
+#include "cpu/octant_masks.h"
+
+#include <cstdint>
+
+#include "core/construction/octree_levels.h"
+
+namespace irgrid {
+
+void child_overlap_masks(const NodeSplit& node, const TriangleVertices* triangles,
+                         std::uint64_t num_triangles, const std::uint32_t* ids, std::uint32_t count,
+                         std::uint8_t* masks) {
+  // A node of a few triangles would leave most lanes empty.
+  if (count >= 4 && num_triangles * 9 < (std::uint64_t(1) << 31)) {
+    if (cpu_has(SimdIsa::avx512))
+      return child_overlap_masks_in_lanes<SimdIsa::avx512>(node, triangles, ids, count, masks);
+    if (cpu_has(SimdIsa::avx2))
+      return child_overlap_masks_in_lanes<SimdIsa::avx2>(node, triangles, ids, count, masks);
+  }
+  for (std::uint32_t k = 0; k < count; ++k)
+    masks[k] = std::uint8_t(child_overlap_mask(node, triangles[ids[k]]));
+}
+
+}  // namespace irgrid
