@@ -15,6 +15,7 @@
 
 #include "core/construction/merge.h"
 #include "core/triangle_box.h"
+#include "cpu/merge_propose.h"
 #include "grid_test_support.h"
 #include "irgrid/io/random.h"
 #include "irgrid/io/rays.h"
@@ -376,6 +377,64 @@ TEST_P(GridMerge, NarrowCellsMergeAsFullCellsDo) {
 // A narrow cell keeps its partner's id in both halves of its upper corner: ids past 16 bits.
 TEST(GridMergeNarrow, PartnersPast65535MergeAsFullCellsDo) {
   expect_narrow_cells_merge_as_full_cells_do(load_scene("builtin:sphere:60000"), 1u << 17);
+}
+
+/// A sweep's proposals in the lanes of kIsa (cpu/merge_propose.h) against merge_partner, cell by
+/// cell: every axis, quiet cells skipped, quiet bits tracked or not, batches of every length.
+template <SimdIsa kIsa>
+void expect_lane_proposals_as_merge_partner() {
+  if (!cpu_has(kIsa)) GTEST_SKIP() << "this CPU lacks the instruction set";
+  for (const char* name : {"builtin:sphere:20000", "builtin:teapot-stadium:20000",
+                           "builtin:hairball:20000", "builtin:cornell"}) {
+    SCOPED_TRACE(name);
+    const Grid grid = narrowed(build_octree_form_grid(load_scene(name)));
+    const std::uint32_t n = grid.info.num_cells;
+    const NarrowCell* cells = grid.narrow_cells.data();
+    Pcg32 rng;
+    rng.seed(n, 5);
+    long proposals = 0;
+    // At 1.5 two empty cubes are too long to merge; at 0 any empty cells may.
+    for (const float empty_aspect : {kEmptyAspect, 1.5f, 0.f})
+      for (int axis = 0; axis < 3; ++axis)
+        for (const bool track : {false, true}) {
+          std::vector<std::uint32_t> next(n, 7), prev(n, 7), union_size(n, 7), quiet(n);
+          for (std::uint32_t& q : quiet)
+            q = rng.next_u32() % 4 == 0 ? 7u : 0u;
+          const std::vector<std::uint32_t> quiet_before = quiet;
+          const merge_detail::ProposeInputs in{
+              grid.info,   grid.entries.data(), cells,        grid.refs.data(),
+              axis,        kCostRatio,          empty_aspect, next.data(),
+              prev.data(), union_size.data(),   quiet.data(), track};
+          for (std::uint32_t first = 0; first < n;) {
+            const std::uint32_t count = std::min(n - first, 1 + rng.next_u32() % 40);
+            propose_merges_with<kIsa>(in, first, count);
+            first += count;
+          }
+          for (std::uint32_t c = 0; c < n; ++c) {
+            std::uint32_t size = 0;
+            const std::uint32_t partner =
+                quiet_before[c] >> axis & 1
+                    ? merge_detail::kNoCell
+                    : merge_detail::merge_partner(grid.info, grid.entries.data(), cells,
+                                                  grid.refs.data(), c, axis, kCostRatio,
+                                                  empty_aspect, size);
+            ASSERT_EQ(next[c], partner) << "cell " << c << " axis " << axis;
+            ASSERT_EQ(union_size[c], partner == merge_detail::kNoCell ? 0 : size);
+            ASSERT_EQ(prev[c], merge_detail::kNoCell);
+            const bool quieted = track && partner == merge_detail::kNoCell;
+            ASSERT_EQ(quiet[c], quiet_before[c] | (quieted ? 1u << axis : 0u));
+            proposals += partner != merge_detail::kNoCell;
+          }
+        }
+    EXPECT_GT(proposals, n / 10);  // the cells propose, not only decline
+  }
+}
+
+TEST(GridMergeLanes, Avx2ProposalsAreMergePartners) {
+  expect_lane_proposals_as_merge_partner<SimdIsa::avx2>();
+}
+TEST(GridMergeLanes, Avx512ProposalsAreMergePartners) {
+  expect_lane_proposals_as_merge_partner<SimdIsa::avx512>();
 }
 
 // Merging skips the proposals of cells it knows to be quiet (merge.h). At alpha = 1 it runs

@@ -14,6 +14,7 @@
 
 #include "cpu/host_memory.h"
 #include "cpu/memory_meter.h"
+#include "cpu/merge_propose.h"
 #include "cpu/octant_masks.h"
 #include "cpu/parallel.h"
 #include "cpu/pooled_allocator.h"
@@ -48,6 +49,15 @@ class CpuExecutor {
                                   std::uint64_t num_triangles, const std::uint32_t* ids,
                                   std::uint32_t count, std::uint8_t* masks) {
     irgrid::child_overlap_masks(node, triangles, num_triangles, ids, count, masks);
+  }
+
+  /// A merge sweep's proposals over narrow cells run in SIMD lanes, one cell per lane, where
+  /// proposes_in_lanes says so (cpu/merge_propose.h): the same proposals.
+  static constexpr bool kProposesInLanes = true;
+  static bool proposes_in_lanes(const GridInfo& info) { return irgrid::proposes_in_lanes(info); }
+  static void propose_merges_in_lanes(const merge_detail::ProposeInputs& in, std::uint32_t first,
+                                      std::uint32_t count) {
+    irgrid::propose_merges_in_lanes(in, first, count);
   }
 
   /// Merging pairs the cells of each proposal chain by walking it from its head in one body

@@ -63,6 +63,11 @@ class CudaExecutor {
 
   /// Octrees level by level: a few wide passes per level (CpuExecutor::kDepthFirstOctrees).
   static constexpr bool kDepthFirstOctrees = false;
+  /// Proposals one cell per thread (CpuExecutor::kProposesInLanes).
+  static constexpr bool kProposesInLanes = false;
+  static bool proposes_in_lanes(const GridInfo&) { return false; }
+  template <typename Inputs>
+  static void propose_merges_in_lanes(const Inputs&, std::uint32_t, std::uint32_t) {}
 
   /// Merge chains by pointer jumping: a serial walk of a long chain would hold up its warp
   /// (CpuExecutor::kSerialMergeChains).

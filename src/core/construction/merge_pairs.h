@@ -24,10 +24,12 @@
 
 #include <cmath>
 #include <cstdint>
+#include <type_traits>
 #include <utility>
 
 #include "core/construction/cells.h"
 #include "core/construction/merge_lists.h"
+#include "core/construction/narrow_cell.h"
 
 namespace irgrid {
 
@@ -120,6 +122,19 @@ IRGRID_HD inline std::uint32_t merge_partner(const GridInfo& info, const Entry* 
              : kNoCell;
 }
 
+/// What a sweep's proposals read and write (propose_merges), for executors that make them in
+/// SIMD lanes (Exec::kProposesInLanes: the host's, cpu/merge_propose.h) over narrow cells.
+struct ProposeInputs {
+  GridInfo info;
+  const Entry* entries;
+  const NarrowCell* cells;
+  const std::uint32_t* refs;
+  int axis;
+  float cost_ratio, empty_aspect;
+  std::uint32_t *next, *prev, *union_size, *quiet;  ///< quiet may be null unless track
+  bool track;
+};
+
 /// Proposals of one sweep: next[c] (kNoCell if none), union_size[c] and prev[next[c]] = c (a
 /// cell has at most one aligned predecessor, so that write has a single writer). quiet[c] holds
 /// one bit per axis: set, c is known to propose nothing along it and is skipped; a cell found to
@@ -137,35 +152,49 @@ std::uint32_t propose_merges(Exec& exec, const GridArrays<Exec>& grid, const Cel
   // Each body proposes for a batch of cells, walking their voxel-map lookups side by side: each
   // walk is a chain of dependent loads, and the walks of a batch are in flight together.
   constexpr std::uint32_t kBatch = Exec::kLookupBatch;
-  exec.for_each("merge propose", (n + kBatch - 1) / kBatch, [=] IRGRID_HD(std::size_t b) {
-    const auto first = std::uint32_t(b * kBatch);
-    const std::uint32_t count = n - first < kBatch ? n - first : kBatch;
-    std::uint32_t walking[kBatch], owners[kBatch];
-    Voxel past[kBatch];
-    std::uint32_t walks = 0;
-    for (std::uint32_t k = 0; k < count; ++k) {
-      const std::uint32_t i = first + k;
-      next[i] = kNoCell;
-      union_size[i] = 0;
-      prev[i] = kNoCell;
-      if ((quiet == nullptr || (quiet[i] & bit) == 0) &&
-          voxel_past_upper_face(info, cells[i], axis, past[walks]))
-        walking[walks++] = i;
+  bool proposed = false;
+  if constexpr (Exec::kProposesInLanes && std::is_same_v<CellT, NarrowCell>) {
+    if (Exec::proposes_in_lanes(info)) {
+      const ProposeInputs in{info,         entries, cells, refs,       axis,  cost_ratio,
+                             empty_aspect, next,    prev,  union_size, quiet, track};
+      constexpr std::uint32_t kCells = 4 * kBatch;
+      exec.for_each("merge propose", (n + kCells - 1) / kCells, [=](std::size_t b) {
+        const auto first = std::uint32_t(b * kCells);
+        Exec::propose_merges_in_lanes(in, first, n - first < kCells ? n - first : kCells);
+      });
+      proposed = true;
     }
-    lookup_cells<kBatch>(info, entries, past, walks, owners);
-    for (std::uint32_t w = 0; w < walks; ++w) {
-      const std::uint32_t i = walking[w];
-      std::uint32_t size = 0;
-      if (proposes_merge(info, cells, refs, cells[i], owners[w], axis, cost_ratio, empty_aspect,
-                         size)) {
-        next[i] = owners[w];
-        union_size[i] = size;
+  }
+  if (!proposed)
+    exec.for_each("merge propose", (n + kBatch - 1) / kBatch, [=] IRGRID_HD(std::size_t b) {
+      const auto first = std::uint32_t(b * kBatch);
+      const std::uint32_t count = n - first < kBatch ? n - first : kBatch;
+      std::uint32_t walking[kBatch], owners[kBatch];
+      Voxel past[kBatch];
+      std::uint32_t walks = 0;
+      for (std::uint32_t k = 0; k < count; ++k) {
+        const std::uint32_t i = first + k;
+        next[i] = kNoCell;
+        union_size[i] = 0;
+        prev[i] = kNoCell;
+        if ((quiet == nullptr || (quiet[i] & bit) == 0) &&
+            voxel_past_upper_face(info, cells[i], axis, past[walks]))
+          walking[walks++] = i;
       }
-    }
-    if (track)
-      for (std::uint32_t k = 0; k < count; ++k)
-        if (next[first + k] == kNoCell) quiet[first + k] |= bit;
-  });
+      lookup_cells<kBatch>(info, entries, past, walks, owners);
+      for (std::uint32_t w = 0; w < walks; ++w) {
+        const std::uint32_t i = walking[w];
+        std::uint32_t size = 0;
+        if (proposes_merge(info, cells, refs, cells[i], owners[w], axis, cost_ratio, empty_aspect,
+                           size)) {
+          next[i] = owners[w];
+          union_size[i] = size;
+        }
+      }
+      if (track)
+        for (std::uint32_t k = 0; k < count; ++k)
+          if (next[first + k] == kNoCell) quiet[first + k] |= bit;
+    });
   exec.for_each("merge link", info.num_cells, [=] IRGRID_HD(std::size_t i) {
     if (next[i] != kNoCell) prev[next[i]] = std::uint32_t(i);
   });
