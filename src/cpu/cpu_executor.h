@@ -43,8 +43,10 @@ class CpuExecutor {
   /// build's.
   static constexpr bool kDepthFirstOctrees = true;
 
-  /// masks[k] = child_overlap_mask(node, triangles[ids[k]]) for k < count, for the depth-first
-  /// octrees: many triangles at once in SIMD lanes (cpu/octant_masks.h), the same masks.
+  /// The octrees' children masks come from child_overlap_masks, a node's triangles at once.
+  static constexpr bool kOctreeMasksInLanes = true;
+  /// masks[k] = child_overlap_mask(node, triangles[ids[k]]) for k < count: many triangles at
+  /// once in SIMD lanes (cpu/octant_masks.h), the same masks.
   static void child_overlap_masks(const NodeSplit& node, const TriangleVertices* triangles,
                                   std::uint64_t num_triangles, const std::uint32_t* ids,
                                   std::uint32_t count, std::uint8_t* masks) {

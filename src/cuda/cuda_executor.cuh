@@ -63,6 +63,8 @@ class CudaExecutor {
 
   /// Octrees level by level: a few wide passes per level (CpuExecutor::kDepthFirstOctrees).
   static constexpr bool kDepthFirstOctrees = false;
+  /// Masks one (node, triangle) pair per thread (CpuExecutor::kOctreeMasksInLanes).
+  static constexpr bool kOctreeMasksInLanes = false;
   /// Proposals one cell per thread (CpuExecutor::kProposesInLanes).
   static constexpr bool kProposesInLanes = false;
   static bool proposes_in_lanes(const GridInfo&) { return false; }

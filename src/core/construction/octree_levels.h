@@ -302,15 +302,45 @@ LevelPlan<Exec> plan_level(Exec& exec, const GridInfo& info, const TriangleVerti
     const std::size_t chunk = std::max<std::size_t>(pairs.count / 16 + 1, std::size_t(1) << 12);
     for (std::size_t begin = 0; begin < pairs.count && !passes_budget; begin += chunk) {
       const std::size_t count = std::min<std::size_t>(chunk, pairs.count - begin);
-      exec.for_each("level child counts", count, [=] IRGRID_HD(std::size_t k) {
-        const std::size_t i = begin + k;
-        const std::uint32_t node = pair_node[i];
-        if (!r.candidate(level, r.depths[top[node]], child_base[node])) return;
-        const std::uint32_t mask = child_overlap_mask(info, lo[node], half, triangles[pair_tri[i]]);
-        pair_masks[i] = std::uint8_t(mask);
-        atomic_add(&leaf_index[node], popcount8(mask));
-        atomic_and(&folded[node], fold_mask(mask));
-      });
+      if constexpr (Exec::kOctreeMasksInLanes) {
+        // The host: each run of a node's pairs (the pairs come grouped by node) takes its masks
+        // in SIMD lanes (child_overlap_masks), and adds them to the node's totals once.
+        constexpr std::size_t kPairsPerBody = 1024;
+        exec.for_each("level child counts", (count + kPairsPerBody - 1) / kPairsPerBody,
+                      [=](std::size_t b) {
+                        const std::size_t first = begin + b * kPairsPerBody,
+                                          last = std::min(first + kPairsPerBody, begin + count);
+                        for (std::size_t run = first; run < last;) {
+                          const std::uint32_t node = pair_node[run];
+                          std::size_t end = run + 1;
+                          while (end < last && pair_node[end] == node)
+                            ++end;
+                          if (r.candidate(level, r.depths[top[node]], child_base[node])) {
+                            Exec::child_overlap_masks(node_split(info, lo[node], half), triangles,
+                                                      info.num_triangles, pair_tri + run,
+                                                      std::uint32_t(end - run), pair_masks + run);
+                            std::uint32_t refs = 0, fold = kMasksFolded;
+                            for (std::size_t i = run; i < end; ++i) {
+                              refs += popcount8(pair_masks[i]);
+                              fold &= fold_mask(pair_masks[i]);
+                            }
+                            atomic_add(&leaf_index[node], refs);
+                            atomic_and(&folded[node], fold);
+                          }
+                          run = end;
+                        }
+                      });
+      } else
+        exec.for_each("level child counts", count, [=] IRGRID_HD(std::size_t k) {
+          const std::size_t i = begin + k;
+          const std::uint32_t node = pair_node[i];
+          if (!r.candidate(level, r.depths[top[node]], child_base[node])) return;
+          const std::uint32_t mask =
+              child_overlap_mask(info, lo[node], half, triangles[pair_tri[i]]);
+          pair_masks[i] = std::uint8_t(mask);
+          atomic_add(&leaf_index[node], popcount8(mask));
+          atomic_and(&folded[node], fold_mask(mask));
+        });
       if (sure_splits == 0 || !r.stop_tests_at_budget) continue;
       sure_child_refs += exec.transform_reduce(
           "level sure child refs", count, std::uint64_t(0), plus, [=] IRGRID_HD(std::size_t k) {
