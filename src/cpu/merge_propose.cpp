@@ -1,5 +1,5 @@
 // cpu/merge_propose.cpp: which lanes a merge sweep's proposals run in. Compiled for the baseline
-// target; the lanes live in merge_propose_avx2.cpp and merge_propose_avx512.cpp.
+// target; the lanes live in build_lanes_avx2.cpp and build_lanes_avx512.cpp.
 #include "cpu/merge_propose.h"
 
 #include <cstdint>

@@ -1,6 +1,6 @@
 // cpu/merge_propose_lanes.h: a merge sweep's proposals (cpu/merge_propose.h) written once over
-// the lane operations V of an instruction set, one cell per lane. Each instruction set's file
-// includes this after its target pragma.
+// the lane operations V of an instruction set, one cell per lane. cpu/build_lanes_avx2.cpp and
+// build_lanes_avx512.cpp include this after their target pragma.
 //
 // Every lane-wise line mirrors one of propose_merges, voxel_past_upper_face, lookup_cell,
 // proposes_merge, half_area or empty_merge_keeps_shape (core/construction/merge_pairs.h,

@@ -1,5 +1,5 @@
 // cpu/octant_masks.cpp: which lanes child_overlap_masks runs in. Compiled for the baseline
-// target; the lanes live in octant_masks_avx2.cpp and octant_masks_avx512.cpp.
+// target; the lanes live in build_lanes_avx2.cpp and build_lanes_avx512.cpp.
 #include "cpu/octant_masks.h"
 
 #include <cstdint>

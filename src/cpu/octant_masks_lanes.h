@@ -1,6 +1,7 @@
 // cpu/octant_masks_lanes.h: child_overlap_masks (cpu/octant_masks.h) written once over the lane
 // operations V of an instruction set (cpu/simd_lanes_avx2.h, cpu/simd_lanes_avx512.h), one
-// triangle per lane. Each instruction set's file includes this after its target pragma.
+// triangle per lane. cpu/build_lanes_avx2.cpp and build_lanes_avx512.cpp include this after their
+// target pragma.
 //
 // Every lane-wise line mirrors one of child_overlap_mask (core/construction/octree_levels.h),
 // octants_holding_vertex (irgrid/kernel/triangle.h) or octants_overlapped (core/triangle_box.h)

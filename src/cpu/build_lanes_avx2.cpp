@@ -1,0 +1,48 @@
+// cpu/build_lanes_avx2.cpp: the build's steps in SIMD lanes, in the 8 lanes of AVX2: the octrees'
+// children masks (cpu/octant_masks.h) and a merge sweep's proposals (cpu/merge_propose.h).
+// Only the code below the pragma is compiled for avx2, and it runs only where cpu_has() says the
+// CPU has it; the headers it uses are included above the pragma, so that their inline functions
+// stay baseline code.
+#include <immintrin.h>
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+
+#include "core/construction/merge_lists.h"
+#include "core/construction/merge_pairs.h"
+#include "core/construction/narrow_cell.h"
+#include "core/construction/octree_levels.h"
+#include "core/triangle_box.h"
+#include "cpu/merge_propose.h"
+#include "cpu/octant_masks.h"
+#include "irgrid/kernel/grid_layout.h"
+#include "irgrid/kernel/triangle.h"
+
+#pragma GCC push_options
+#pragma GCC target("avx2")
+#pragma GCC diagnostic ignored "-Wpsabi"
+
+#include "cpu/merge_propose_lanes.h"
+#include "cpu/octant_masks_lanes.h"
+#include "cpu/simd_lanes_avx2.h"
+
+namespace irgrid {
+
+template <>
+void child_overlap_masks_in_lanes<SimdIsa::avx2>(const NodeSplit& node,
+                                                 const TriangleVertices* triangles,
+                                                 const std::uint32_t* ids, std::uint32_t count,
+                                                 std::uint8_t* masks) {
+  simd::OctantMaskLanes<simd::Avx2Lanes>::child_overlap_masks(node, triangles, ids, count, masks);
+}
+
+template <>
+void propose_merges_with<SimdIsa::avx2>(const merge_detail::ProposeInputs& in, std::uint32_t first,
+                                        std::uint32_t count) {
+  simd::ProposeLanes<simd::Avx2Lanes>::propose(in, first, count);
+}
+
+}  // namespace irgrid
+
+#pragma GCC pop_options

@@ -1,0 +1,52 @@
+// cpu/build_lanes_avx512.cpp: the build's steps in SIMD lanes, in the 16 lanes of AVX-512: the
+// octrees' children masks (cpu/octant_masks.h) and a merge sweep's proposals
+// (cpu/merge_propose.h). Only the code below the pragma is compiled for avx512, and it runs only
+// where cpu_has() says the CPU has it; the headers it uses are included above the pragma, so that
+// their inline functions stay baseline code. (GCC 12's AVX-512 intrinsics trip -Wuninitialized:
+// see simd_walk_avx512.cpp.)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wuninitialized"
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#include <immintrin.h>
+#pragma GCC diagnostic pop
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+
+#include "core/construction/merge_lists.h"
+#include "core/construction/merge_pairs.h"
+#include "core/construction/narrow_cell.h"
+#include "core/construction/octree_levels.h"
+#include "core/triangle_box.h"
+#include "cpu/merge_propose.h"
+#include "cpu/octant_masks.h"
+#include "irgrid/kernel/grid_layout.h"
+#include "irgrid/kernel/triangle.h"
+
+#pragma GCC push_options
+#pragma GCC target("avx2,avx512f")
+
+#include "cpu/merge_propose_lanes.h"
+#include "cpu/octant_masks_lanes.h"
+#include "cpu/simd_lanes_avx512.h"
+
+namespace irgrid {
+
+template <>
+void child_overlap_masks_in_lanes<SimdIsa::avx512>(const NodeSplit& node,
+                                                   const TriangleVertices* triangles,
+                                                   const std::uint32_t* ids, std::uint32_t count,
+                                                   std::uint8_t* masks) {
+  simd::OctantMaskLanes<simd::Avx512Lanes>::child_overlap_masks(node, triangles, ids, count, masks);
+}
+
+template <>
+void propose_merges_with<SimdIsa::avx512>(const merge_detail::ProposeInputs& in,
+                                          std::uint32_t first, std::uint32_t count) {
+  simd::ProposeLanes<simd::Avx512Lanes>::propose(in, first, count);
+}
+
+}  // namespace irgrid
+
+#pragma GCC pop_options
