@@ -303,8 +303,11 @@ LevelPlan<Exec> plan_level(Exec& exec, const GridInfo& info, const TriangleVerti
     for (std::size_t begin = 0; begin < pairs.count && !passes_budget; begin += chunk) {
       const std::size_t count = std::min<std::size_t>(chunk, pairs.count - begin);
       if constexpr (Exec::kOctreeMasksInLanes) {
-        // The host: each run of a node's pairs (the pairs come grouped by node) takes its masks
-        // in SIMD lanes (child_overlap_masks), and adds them to the node's totals once.
+        // The host: each run of consecutive pairs of one node takes its masks in SIMD lanes
+        // (child_overlap_masks) and adds them to the node's totals once. The top cells' pairs
+        // come grouped by cell; a split emits its pairs triangle by triangle, so deeper levels
+        // interleave the children of a node and most of their runs are one pair long (the
+        // scalar test; docs/benchmarks.md has the figures).
         constexpr std::size_t kPairsPerBody = 1024;
         exec.for_each("level child counts", (count + kPairsPerBody - 1) / kPairsPerBody,
                       [=](std::size_t b) {
