@@ -143,5 +143,66 @@ TEST(OctantMasks, DispatchGivesTheScalarMasks) {
       }));
 }
 
+/// level_child_masks in the lanes of kIsa against child_overlap_mask pair by pair: each pair
+/// with its own node, nodes of one size on a grid placed anywhere, only the picked pairs written.
+template <SimdIsa kIsa>
+void expect_level_lanes_equal_scalar() {
+  if (!cpu_has(kIsa)) GTEST_SKIP() << "this CPU lacks the instruction set";
+  Random r(1207);
+  long compared = 0, differing = 0, left_out = 0, untouched = 0;
+  for (int round = 0; round < 300; ++round) {
+    GridInfo info{};
+    const double offset = r.chance(0.3) ? r.uniform(-1e5, 1e5) : 0.0;
+    for (int a = 0; a < 3; ++a) {
+      info.box_lo[a] = float(offset + r.uniform(-8, 8));
+      info.voxel_size[a] = float(r.uniform(1e-3, 0.5));
+    }
+    info.padding = r.chance(0.5) ? 0.f : float(r.uniform(0, 1e-3));
+    const std::int32_t half = std::int32_t(1) << r.below(5);
+    std::vector<Voxel> node_lo(40);
+    for (Voxel& v : node_lo)
+      v = {2 * half * r.below(64), 2 * half * r.below(64), 2 * half * r.below(64)};
+    const auto pairs = std::uint32_t(1 + r.below(90));
+    std::vector<std::uint32_t> pair_node(pairs), pair_tri(pairs), picked;
+    std::vector<TriangleVertices> triangles;
+    for (std::uint32_t p = 0; p < pairs; ++p) {
+      pair_node[p] = std::uint32_t(r.below(40));
+      // A triangle around its pair's node, as a level's pairs are.
+      triangles.push_back(random_triangles(r, node_split(info, node_lo[pair_node[p]], half), 1)[0]);
+      pair_tri[p] = p;
+      if (r.chance(0.8)) picked.push_back(p);
+    }
+    std::vector<std::uint8_t> masks(pairs, 0xA5);
+    level_child_masks_in_lanes<kIsa>(info, half, triangles.data(), node_lo.data(), pair_node.data(),
+                                     pair_tri.data(), picked.data(), std::uint32_t(picked.size()),
+                                     masks.data());
+    std::vector<bool> is_picked(pairs);
+    for (const std::uint32_t p : picked)
+      is_picked[p] = true;
+    for (std::uint32_t p = 0; p < pairs; ++p) {
+      if (!is_picked[p]) {
+        ++left_out;
+        untouched += masks[p] == 0xA5;
+        continue;
+      }
+      ++compared;
+      differing +=
+          masks[p] != child_overlap_mask(info, node_lo[pair_node[p]], half, triangles[pair_tri[p]]);
+    }
+  }
+  EXPECT_EQ(differing, 0) << "of " << compared;
+  EXPECT_GT(compared, 5000);
+  EXPECT_EQ(untouched, left_out);  // pairs left out keep their bytes
+  EXPECT_GT(left_out, 500);
+}
+
+TEST(OctantMasks, Avx2LevelLanesGiveTheScalarMasks) {
+  expect_level_lanes_equal_scalar<SimdIsa::avx2>();
+}
+
+TEST(OctantMasks, Avx512LevelLanesGiveTheScalarMasks) {
+  expect_level_lanes_equal_scalar<SimdIsa::avx512>();
+}
+
 }  // namespace
 }  // namespace irgrid

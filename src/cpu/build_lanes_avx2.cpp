@@ -38,6 +38,19 @@ void child_overlap_masks_in_lanes<SimdIsa::avx2>(const NodeSplit& node,
 }
 
 template <>
+void level_child_masks_in_lanes<SimdIsa::avx2>(const GridInfo& info, std::int32_t half,
+                                               const TriangleVertices* triangles,
+                                               const Voxel* node_lo, const std::uint32_t* pair_node,
+                                               const std::uint32_t* pair_tri,
+                                               const std::uint32_t* picked, std::uint32_t count,
+                                               std::uint8_t* masks) {
+  using Lanes = simd::OctantMaskLanes<simd::Avx2Lanes>;
+  Lanes::masks_of(
+      typename Lanes::LevelPairs{&info, half, triangles, node_lo, pair_node, pair_tri, picked},
+      count, masks);
+}
+
+template <>
 void propose_merges_with<SimdIsa::avx2>(const merge_detail::ProposeInputs& in, std::uint32_t first,
                                         std::uint32_t count) {
   simd::ProposeLanes<simd::Avx2Lanes>::propose(in, first, count);

@@ -53,6 +53,17 @@ class CpuExecutor {
     irgrid::child_overlap_masks(node, triangles, num_triangles, ids, count, masks);
   }
 
+  /// level_child_masks (cpu/octant_masks.h): a level's pairs, each with its own node.
+  static void level_child_masks(const GridInfo& info, std::int32_t half,
+                                const TriangleVertices* triangles, const Voxel* node_lo,
+                                std::uint64_t num_nodes, const std::uint32_t* pair_node,
+                                const std::uint32_t* pair_tri, std::uint64_t num_pairs,
+                                const std::uint32_t* picked, std::uint32_t count,
+                                std::uint8_t* masks) {
+    irgrid::level_child_masks(info, half, triangles, node_lo, num_nodes, pair_node, pair_tri,
+                              num_pairs, picked, count, masks);
+  }
+
   /// A merge sweep's proposals over narrow cells run in SIMD lanes, one cell per lane, where
   /// proposes_in_lanes says so (cpu/merge_propose.h): the same proposals.
   static constexpr bool kProposesInLanes = true;

@@ -16,8 +16,10 @@
 
 namespace irgrid {
 
+struct GridInfo;
 struct NodeSplit;
 struct TriangleVertices;
+struct Voxel;
 
 /// masks[k] = child_overlap_mask(node, triangles[ids[k]]) for k < count (ids below
 /// num_triangles), in the widest SIMD lanes this CPU runs (cpu_has), or one triangle at a time
@@ -32,5 +34,24 @@ template <SimdIsa kIsa>
 void child_overlap_masks_in_lanes(const NodeSplit& node, const TriangleVertices* triangles,
                                   const std::uint32_t* ids, std::uint32_t count,
                                   std::uint8_t* masks);
+
+/// The masks of a level's (node, triangle) pairs, each with its own node (the level-by-level
+/// octrees, octree_levels.h): for k < count, with p = picked[k],
+///   masks[p] = child_overlap_mask(info, node_lo[pair_node[p]], half, triangles[pair_tri[p]]).
+/// In SIMD lanes where the CPU runs them and the pairs, nodes and triangles fit 32-bit gather
+/// indices; one pair at a time otherwise.
+void level_child_masks(const GridInfo& info, std::int32_t half, const TriangleVertices* triangles,
+                       const Voxel* node_lo, std::uint64_t num_nodes,
+                       const std::uint32_t* pair_node, const std::uint32_t* pair_tri,
+                       std::uint64_t num_pairs, const std::uint32_t* picked, std::uint32_t count,
+                       std::uint8_t* masks);
+
+/// level_child_masks in the lanes of kIsa. Requires cpu_has(kIsa) and the 32-bit indices.
+template <SimdIsa kIsa>
+void level_child_masks_in_lanes(const GridInfo& info, std::int32_t half,
+                                const TriangleVertices* triangles, const Voxel* node_lo,
+                                const std::uint32_t* pair_node, const std::uint32_t* pair_tri,
+                                const std::uint32_t* picked, std::uint32_t count,
+                                std::uint8_t* masks);
 
 }  // namespace irgrid

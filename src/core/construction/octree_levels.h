@@ -303,34 +303,27 @@ LevelPlan<Exec> plan_level(Exec& exec, const GridInfo& info, const TriangleVerti
     for (std::size_t begin = 0; begin < pairs.count && !passes_budget; begin += chunk) {
       const std::size_t count = std::min<std::size_t>(chunk, pairs.count - begin);
       if constexpr (Exec::kOctreeMasksInLanes) {
-        // The host: each run of consecutive pairs of one node takes its masks in SIMD lanes
-        // (child_overlap_masks) and adds them to the node's totals once. The top cells' pairs
-        // come grouped by cell; a split emits its pairs triangle by triangle, so deeper levels
-        // interleave the children of a node and most of their runs are one pair long (the
-        // scalar test; docs/benchmarks.md has the figures).
+        // The host: the masks of a body's candidate pairs in SIMD lanes, one pair (with its
+        // own node) per lane (level_child_masks).
         constexpr std::size_t kPairsPerBody = 1024;
+        const std::uint64_t num_nodes = n, num_pairs = pairs.count;
         exec.for_each("level child counts", (count + kPairsPerBody - 1) / kPairsPerBody,
                       [=](std::size_t b) {
                         const std::size_t first = begin + b * kPairsPerBody,
                                           last = std::min(first + kPairsPerBody, begin + count);
-                        for (std::size_t run = first; run < last;) {
-                          const std::uint32_t node = pair_node[run];
-                          std::size_t end = run + 1;
-                          while (end < last && pair_node[end] == node)
-                            ++end;
-                          if (r.candidate(level, r.depths[top[node]], child_base[node])) {
-                            Exec::child_overlap_masks(node_split(info, lo[node], half), triangles,
-                                                      info.num_triangles, pair_tri + run,
-                                                      std::uint32_t(end - run), pair_masks + run);
-                            std::uint32_t refs = 0, fold = kMasksFolded;
-                            for (std::size_t i = run; i < end; ++i) {
-                              refs += popcount8(pair_masks[i]);
-                              fold &= fold_mask(pair_masks[i]);
-                            }
-                            atomic_add(&leaf_index[node], refs);
-                            atomic_and(&folded[node], fold);
-                          }
-                          run = end;
+                        std::uint32_t picked[kPairsPerBody] = {};
+                        std::uint32_t picks = 0;
+                        for (std::size_t i = first; i < last; ++i) {
+                          const std::uint32_t node = pair_node[i];
+                          if (r.candidate(level, r.depths[top[node]], child_base[node]))
+                            picked[picks++] = std::uint32_t(i);
+                        }
+                        Exec::level_child_masks(info, half, triangles, lo, num_nodes, pair_node,
+                                                pair_tri, num_pairs, picked, picks, pair_masks);
+                        for (std::uint32_t k = 0; k < picks; ++k) {
+                          const std::uint32_t i = picked[k], node = pair_node[i];
+                          atomic_add(&leaf_index[node], popcount8(pair_masks[i]));
+                          atomic_and(&folded[node], fold_mask(pair_masks[i]));
                         }
                       });
       } else
