@@ -65,11 +65,9 @@ class CudaExecutor {
   static constexpr bool kDepthFirstOctrees = false;
   /// Masks one (node, triangle) pair per thread (CpuExecutor::kOctreeMasksInLanes).
   static constexpr bool kOctreeMasksInLanes = false;
-  /// Proposals one cell per thread (CpuExecutor::kProposesInLanes).
+  /// Proposals one cell per thread (CpuExecutor::kProposesInLanes; the lanes' calls sit in
+  /// branches this flag discards).
   static constexpr bool kProposesInLanes = false;
-  static bool proposes_in_lanes(const GridInfo&) { return false; }
-  template <typename Inputs>
-  static void propose_merges_in_lanes(const Inputs&, std::uint32_t, std::uint32_t) {}
 
   /// Merge chains by pointer jumping: a serial walk of a long chain would hold up its warp
   /// (CpuExecutor::kSerialMergeChains).
