@@ -17,6 +17,7 @@
 #include "core/triangle_box.h"
 #include "cpu/merge_propose.h"
 #include "grid_test_support.h"
+#include "guarded_arrays.h"
 #include "irgrid/io/random.h"
 #include "irgrid/io/rays.h"
 #include "irgrid/io/validate.h"
@@ -380,7 +381,8 @@ TEST(GridMergeNarrow, PartnersPast65535MergeAsFullCellsDo) {
 }
 
 /// A sweep's proposals in the lanes of kIsa (cpu/merge_propose.h) against merge_partner, cell by
-/// cell: every axis, quiet cells skipped, quiet bits tracked or not, batches of every length.
+/// cell: every axis, quiet cells skipped, quiet bits tracked or not, batches of every length,
+/// every array ending at an inaccessible page (a lane reading past one faults).
 template <SimdIsa kIsa>
 void expect_lane_proposals_as_merge_partner() {
   if (!cpu_has(kIsa)) GTEST_SKIP() << "this CPU lacks the instruction set";
@@ -389,7 +391,10 @@ void expect_lane_proposals_as_merge_partner() {
     SCOPED_TRACE(name);
     const Grid grid = narrowed(build_octree_form_grid(load_scene(name)));
     const std::uint32_t n = grid.info.num_cells;
-    const NarrowCell* cells = grid.narrow_cells.data();
+    testing::GuardedArrays arrays;
+    const NarrowCell* cells = arrays.copy(grid.narrow_cells);
+    const Entry* entries = arrays.copy(grid.entries);
+    const std::uint32_t* refs = arrays.copy(grid.refs);
     Pcg32 rng;
     rng.seed(n, 5);
     long proposals = 0;
@@ -397,14 +402,18 @@ void expect_lane_proposals_as_merge_partner() {
     for (const float empty_aspect : {kEmptyAspect, 1.5f, 0.f})
       for (int axis = 0; axis < 3; ++axis)
         for (const bool track : {false, true}) {
-          std::vector<std::uint32_t> next(n, 7), prev(n, 7), union_size(n, 7), quiet(n);
-          for (std::uint32_t& q : quiet)
-            q = rng.next_u32() % 4 == 0 ? 7u : 0u;
-          const std::vector<std::uint32_t> quiet_before = quiet;
-          const merge_detail::ProposeInputs in{
-              grid.info,   grid.entries.data(), cells,        grid.refs.data(),
-              axis,        kCostRatio,          empty_aspect, next.data(),
-              prev.data(), union_size.data(),   quiet.data(), track};
+          std::uint32_t* next = arrays.make<std::uint32_t>(n);
+          std::uint32_t* prev = arrays.make<std::uint32_t>(n);
+          std::uint32_t* union_size = arrays.make<std::uint32_t>(n);
+          std::uint32_t* quiet = arrays.make<std::uint32_t>(n);
+          std::vector<std::uint32_t> quiet_before(n);
+          for (std::uint32_t c = 0; c < n; ++c) {
+            next[c] = prev[c] = union_size[c] = 7;
+            quiet[c] = quiet_before[c] = rng.next_u32() % 4 == 0 ? 7u : 0u;
+          }
+          const merge_detail::ProposeInputs in{grid.info, entries,    cells,        refs,
+                                               axis,      kCostRatio, empty_aspect, next,
+                                               prev,      union_size, quiet,        track};
           for (std::uint32_t first = 0; first < n;) {
             const std::uint32_t count = std::min(n - first, 1 + rng.next_u32() % 40);
             propose_merges_with<kIsa>(in, first, count);
@@ -415,9 +424,8 @@ void expect_lane_proposals_as_merge_partner() {
             const std::uint32_t partner =
                 quiet_before[c] >> axis & 1
                     ? merge_detail::kNoCell
-                    : merge_detail::merge_partner(grid.info, grid.entries.data(), cells,
-                                                  grid.refs.data(), c, axis, kCostRatio,
-                                                  empty_aspect, size);
+                    : merge_detail::merge_partner(grid.info, entries, cells, refs, c, axis,
+                                                  kCostRatio, empty_aspect, size);
             ASSERT_EQ(next[c], partner) << "cell " << c << " axis " << axis;
             ASSERT_EQ(union_size[c], partner == merge_detail::kNoCell ? 0 : size);
             ASSERT_EQ(prev[c], merge_detail::kNoCell);

@@ -1,15 +1,18 @@
 // The octree's children masks in SIMD lanes (cpu/octant_masks.h) against child_overlap_mask
 // (core/construction/octree_levels.h) one triangle at a time: the same bits for every triangle,
 // generic, touching the node's mid-planes, degenerate, huge, tiny, infinite and not a number,
-// whatever the count (full registers and partial ones).
+// whatever the count (full registers and partial ones), with every array ending at an
+// inaccessible page (tests/guarded_arrays.h), so that a lane reading past one faults.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <vector>
 
 #include "core/construction/octree_levels.h"
 #include "cpu/octant_masks.h"
+#include "guarded_arrays.h"
 #include "irgrid/io/random.h"
 
 namespace irgrid {
@@ -84,13 +87,15 @@ Comparison compare_with_scalar(Lanes lanes) {
   Comparison c;
   for (int round = 0; round < 600; ++round) {
     const NodeSplit node = random_node(r);
-    const auto triangles = random_triangles(r, node, 96);
+    testing::GuardedArrays arrays;
+    const TriangleVertices* triangles = arrays.copy(random_triangles(r, node, 96));
     const auto count = std::uint32_t(1 + r.below(70));
-    std::vector<std::uint32_t> ids(count);
-    for (std::uint32_t& id : ids)
-      id = std::uint32_t(r.below(96));
-    std::vector<std::uint8_t> masks(count, 0xA5);
-    lanes(node, triangles.data(), ids.data(), count, masks.data());
+    // The last triangle often, and the last id last.
+    std::uint32_t* ids = arrays.make<std::uint32_t>(count);
+    for (std::uint32_t k = 0; k < count; ++k)
+      ids[k] = std::uint32_t(r.chance(0.2) ? 95 : r.below(96));
+    std::uint8_t* masks = arrays.make<std::uint8_t>(count);
+    lanes(node, triangles, ids, count, masks);
     for (std::uint32_t k = 0; k < count; ++k) {
       const TriangleVertices& t = triangles[ids[k]];
       const std::uint32_t expected = child_overlap_mask(node, t);
@@ -159,25 +164,31 @@ void expect_level_lanes_equal_scalar() {
     }
     info.padding = r.chance(0.5) ? 0.f : float(r.uniform(0, 1e-3));
     const std::int32_t half = std::int32_t(1) << r.below(5);
-    std::vector<Voxel> node_lo(40);
-    for (Voxel& v : node_lo)
-      v = {2 * half * r.below(64), 2 * half * r.below(64), 2 * half * r.below(64)};
+    testing::GuardedArrays arrays;
+    Voxel* node_lo = arrays.make<Voxel>(40);
+    for (int k = 0; k < 40; ++k)
+      node_lo[k] = {2 * half * r.below(64), 2 * half * r.below(64), 2 * half * r.below(64)};
     const auto pairs = std::uint32_t(1 + r.below(90));
-    std::vector<std::uint32_t> pair_node(pairs), pair_tri(pairs), picked;
-    std::vector<TriangleVertices> triangles;
+    std::uint32_t* pair_node = arrays.make<std::uint32_t>(pairs);
+    std::uint32_t* pair_tri = arrays.make<std::uint32_t>(pairs);
+    TriangleVertices* triangles = arrays.make<TriangleVertices>(pairs);
+    std::vector<std::uint32_t> picks;
     for (std::uint32_t p = 0; p < pairs; ++p) {
-      pair_node[p] = std::uint32_t(r.below(40));
+      // The last node often; the pairs' triangles in reverse, so the last pair's is the first.
+      pair_node[p] = std::uint32_t(r.chance(0.2) ? 39 : r.below(40));
+      pair_tri[p] = pairs - 1 - p;
       // A triangle around its pair's node, as a level's pairs are.
-      triangles.push_back(random_triangles(r, node_split(info, node_lo[pair_node[p]], half), 1)[0]);
-      pair_tri[p] = p;
-      if (r.chance(0.8)) picked.push_back(p);
+      triangles[pair_tri[p]] =
+          random_triangles(r, node_split(info, node_lo[pair_node[p]], half), 1)[0];
+      if (r.chance(0.8)) picks.push_back(p);
     }
-    std::vector<std::uint8_t> masks(pairs, 0xA5);
-    level_child_masks_in_lanes<kIsa>(info, half, triangles.data(), node_lo.data(), pair_node.data(),
-                                     pair_tri.data(), picked.data(), std::uint32_t(picked.size()),
-                                     masks.data());
+    const std::uint32_t* picked = arrays.copy(picks);
+    std::uint8_t* masks = arrays.make<std::uint8_t>(pairs);
+    std::memset(masks, 0xA5, pairs);
+    level_child_masks_in_lanes<kIsa>(info, half, triangles, node_lo, pair_node, pair_tri, picked,
+                                     std::uint32_t(picks.size()), masks);
     std::vector<bool> is_picked(pairs);
-    for (const std::uint32_t p : picked)
+    for (const std::uint32_t p : picks)
       is_picked[p] = true;
     for (std::uint32_t p = 0; p < pairs; ++p) {
       if (!is_picked[p]) {

@@ -27,7 +27,7 @@ void pair_lanes_avx2(std::uint32_t takers, std::uint32_t givers, std::int32_t* o
 #pragma GCC pop_options
 
 #pragma GCC push_options
-#pragma GCC target("avx512f")
+#pragma GCC target("avx512f,avx512vl")
 #include "cpu/simd_lanes_avx512.h"
 namespace {
 void pair_lanes_avx512(std::uint32_t takers, std::uint32_t givers, std::int32_t* out) {

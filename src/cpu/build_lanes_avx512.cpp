@@ -25,7 +25,7 @@
 #include "irgrid/kernel/triangle.h"
 
 #pragma GCC push_options
-#pragma GCC target("avx2,avx512f")
+#pragma GCC target("avx2,avx512f,avx512vl")
 
 #include "cpu/merge_propose_lanes.h"
 #include "cpu/octant_masks_lanes.h"

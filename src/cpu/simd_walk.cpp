@@ -10,7 +10,8 @@ namespace irgrid {
 bool cpu_has(SimdIsa isa) {
   // __builtin_cpu_supports also asks the operating system whether it saves the registers.
   static const bool has_avx2 = __builtin_cpu_supports("avx2");
-  static const bool has_avx512 = __builtin_cpu_supports("avx512f");
+  static const bool has_avx512 =
+      __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl");
   return isa == SimdIsa::avx512 ? has_avx512 : has_avx2;
 }
 

@@ -25,7 +25,7 @@ namespace irgrid {
 /// The instruction sets the SIMD walk is compiled for.
 enum class SimdIsa {
   avx2,    ///< 8 lanes per group
-  avx512,  ///< 16 lanes per group (AVX-512F)
+  avx512,  ///< 16 lanes per group (AVX-512F and VL)
 };
 
 /// Rays each thread keeps in flight: groups of lanes (4 of 16 with AVX-512, 8 of 8 with AVX2),
@@ -34,7 +34,9 @@ enum class SimdIsa {
 /// memory most (measured on the Intel Xeon VM).
 inline constexpr int kSimdWalkRaysInFlight = 64;
 
-/// Whether this CPU (and its operating system) runs `isa`.
+/// Whether this CPU (and its operating system) runs `isa`. AVX-512 asks for VL besides F: GCC
+/// 12 emits 256-bit EVEX forms (vextracti32x4 on ymm) in the 512-bit lanes' code, which CPUs
+/// with F alone (Xeon Phi) would fault on.
 bool cpu_has(SimdIsa isa);
 
 /// Whether the grid's arrays fit the walk's 32-bit gather indices (9 floats per triangle: fewer

@@ -24,7 +24,7 @@
 #include "irgrid/kernel/grid_traverse.h"
 
 #pragma GCC push_options
-#pragma GCC target("avx2,avx512f")
+#pragma GCC target("avx2,avx512f,avx512vl")
 
 #include "cpu/simd_lanes_avx512.h"
 #include "cpu/simd_walk_lanes.h"
