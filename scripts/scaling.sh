@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Build-time scaling: `irgrid build` of the grid and of Embree over builtin:hairball:N and
 # builtin:sphere:N for N from 100K to 10M (one process per build, the median of REPEAT runs),
-# with the build's memory peak (the largest phase's) and the process's peak memory. Writes out/scaling/results.jsonl, then the table and the plot
-# (scripts/plot_scaling.py: out/scaling/scaling.md and scaling.png; needs matplotlib).
+# with the build's memory peak (the largest phase's) and the process's peak memory. Writes
+# out/scaling/results.jsonl, then the tables and the plot (scripts/plot_scaling.py:
+# out/scaling/scaling.md, with each phase's time and memory peak per size and their exponents,
+# and scaling.png; the plot needs matplotlib).
 #   scripts/scaling.sh [SIZES...]     default: 100000 300000 1000000 3000000 10000000
 # Environment: IRGRID_BIN (default build/irgrid), PYTHON (with matplotlib; default python3),
 # REPEAT (default 3), FAMILIES (default "hairball sphere"), STRUCTURES (default
@@ -37,6 +39,8 @@ print(json.dumps({"family": family, "n": int(n), "structure": structure,
                   "triangles": d["triangles"], "build_ms": d["build_ms"],
                   "phases_ms": d.get("build_phases_ms", {}),
                   "grid_bytes": d["memory_bytes"],
+                  "references": d.get("counts", {}).get("references"),
+                  "cells": d.get("counts", {}).get("cells"),
                   "peak_build_bytes": d.get("counts", {}).get("peak_build_bytes"),
                   "phase_peak_bytes": d.get("build_phase_peak_bytes", {}),
                   # irgrid build restarts the kernel's peak with each phase, so time's maximum
