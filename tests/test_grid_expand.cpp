@@ -17,7 +17,9 @@
 
 #include "core/construction/expand.h"
 #include "core/triangle_box.h"
+#include "cpu/triangle_planes.h"
 #include "grid_test_support.h"
+#include "guarded_arrays.h"
 #include "irgrid/io/camera.h"
 #include "irgrid/io/random.h"
 #include "irgrid/io/rays.h"
@@ -389,6 +391,102 @@ TEST(GridExpandFace, TrianglePlanesGiveTheBoxTestsAnswers) {
     expect_planes_answer_as_the_box<2>(info, c, box, rng);
     if (HasFailure()) return;
   }
+}
+
+/// triangle_planes of each of `triangles`, one at a time.
+std::vector<expand_detail::TrianglePlanes> scalar_planes(
+    const GridInfo& info, const std::vector<TriangleVertices>& triangles) {
+  std::vector<expand_detail::TrianglePlanes> planes;
+  for (const TriangleVertices& t : triangles)
+    planes.push_back(expand_detail::triangle_planes(info, expand_detail::TriangleBounds{t}));
+  return planes;
+}
+
+/// `planes_of` (triangle_planes_in_lanes or triangle_planes_of) against triangle_planes, triangle
+/// by triangle: corners on, a few ulps off and between the planes of voxels whose world
+/// positions round, outside the grid, huge, infinite and NaN; grids of a few shapes and
+/// paddings; counts from 1 to 70, the arrays ending at inaccessible pages.
+template <typename PlanesOf>
+void expect_planes_as_one_at_a_time(PlanesOf planes_of) {
+  Pcg32 rng;
+  rng.seed(1207);
+  long compared = 0, differing = 0, stepped = 0;
+  for (int round = 0; round < 400; ++round) {
+    GridInfo info{};
+    const float offset = round % 3 == 0 ? 1e5f : 0.f;
+    for (int a = 0; a < 3; ++a) {
+      info.box_lo[a] = offset + (rng.next_float() - 0.5f) * 20.f;
+      info.voxel_size[a] = 0.003f + rng.next_float() * 0.7f;
+      info.inv_voxel_size[a] = 1.f / info.voxel_size[a];
+      info.virtual_dims[a] = 1 + std::int32_t(rng.next_u32() % 2000);
+      info.box_hi[a] = info.box_lo[a] + float(info.virtual_dims[a]) * info.voxel_size[a];
+    }
+    info.padding = round % 4 == 0 ? 0.f : rng.next_float() * 1e-3f;
+    const auto coordinate = [&](int a) {
+      static const float specials[] = {INFINITY, -INFINITY, NAN, 3e38f, -3e38f, 0.f};
+      const std::uint32_t kind = rng.next_u32() % 100;
+      if (kind < 2) return specials[rng.next_u32() % 6];
+      const std::int32_t plane =
+          std::int32_t(rng.next_u32() % std::uint32_t(info.virtual_dims[a] + 5)) - 2;
+      const float at = voxel_to_world(info, a, plane);
+      if (kind < 40) return at + info.padding * (float(int(rng.next_u32() % 9)) - 4.f) * 0.5f;
+      if (kind < 60) {
+        float x = at;
+        for (int ulps = int(rng.next_u32() % 17) - 8; ulps != 0; ulps += ulps > 0 ? -1 : 1)
+          x = std::nextafter(x, ulps > 0 ? INFINITY : -INFINITY);
+        return x;
+      }
+      return at + rng.next_float() * info.voxel_size[a] * 4.f;
+    };
+    const auto count = std::uint32_t(1 + rng.next_u32() % 70);
+    std::vector<TriangleVertices> triangles(count);
+    for (TriangleVertices& t : triangles)
+      for (int a = 0; a < 3; ++a) {
+        t.p0[a] = coordinate(a);
+        t.p1[a] = rng.next_u32() % 4 ? coordinate(a) : t.p0[a];
+        t.p2[a] = coordinate(a);
+      }
+    const auto expected = scalar_planes(info, triangles);
+    testing::GuardedArrays arrays;
+    const TriangleVertices* in = arrays.copy(triangles);
+    auto* out = arrays.make<expand_detail::TrianglePlanes>(count);
+    planes_of(info, in, count, out);
+    for (std::uint32_t k = 0; k < count; ++k) {
+      ++compared;
+      differing += std::memcmp(&out[k], &expected[k], sizeof(expand_detail::TrianglePlanes)) != 0;
+      // How often the rounded guess needed a step (the cases reach the loops).
+      const BoxF box = triangle_box(triangles[k]);
+      const float at = (box.lo[0] - 2.f * info.padding - info.box_lo[0]) * info.inv_voxel_size[0];
+      stepped += std::isfinite(at) && at > 0.f && at < float(info.virtual_dims[0]) &&
+                 expected[k].before[0] != std::uint16_t(expand_detail::floor_to_int(at));
+    }
+  }
+  EXPECT_EQ(differing, 0) << "of " << compared;
+  EXPECT_GT(compared, 10000);
+  EXPECT_GT(stepped, compared / 50);
+}
+
+template <SimdIsa kIsa>
+void expect_lanes_planes_as_one_at_a_time() {
+  if (!cpu_has(kIsa)) GTEST_SKIP() << "this CPU lacks the instruction set";
+  expect_planes_as_one_at_a_time([](const GridInfo& info, const TriangleVertices* triangles,
+                                    std::uint32_t count, expand_detail::TrianglePlanes* out) {
+    triangle_planes_in_lanes<kIsa>(info, triangles, count, out);
+  });
+}
+
+TEST(GridExpandFace, Avx2LanesGiveTheTrianglePlanes) {
+  expect_lanes_planes_as_one_at_a_time<SimdIsa::avx2>();
+}
+
+TEST(GridExpandFace, Avx512LanesGiveTheTrianglePlanes) {
+  expect_lanes_planes_as_one_at_a_time<SimdIsa::avx512>();
+}
+
+TEST(GridExpandFace, DispatchGivesTheTrianglePlanes) {
+  expect_planes_as_one_at_a_time(
+      [](const GridInfo& info, const TriangleVertices* triangles, std::uint32_t count,
+         expand_detail::TrianglePlanes* out) { triangle_planes_of(info, triangles, count, out); });
 }
 
 /// Mean cells visited and triangles tested per ray.

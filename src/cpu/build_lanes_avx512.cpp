@@ -1,9 +1,9 @@
 // cpu/build_lanes_avx512.cpp: the build's steps in SIMD lanes, in the 16 lanes of AVX-512: the
-// octrees' children masks (cpu/octant_masks.h) and a merge sweep's proposals
-// (cpu/merge_propose.h). Only the code below the pragma is compiled for avx512, and it runs only
-// where cpu_has() says the CPU has it; the headers it uses are included above the pragma, so that
-// their inline functions stay baseline code. (GCC 12's AVX-512 intrinsics trip -Wuninitialized:
-// see simd_walk_avx512.cpp.)
+// octrees' children masks (cpu/octant_masks.h), a merge sweep's proposals
+// (cpu/merge_propose.h) and the expansion's triangle planes (cpu/triangle_planes.h). Only the code
+// below the pragma is compiled for avx512, and it runs only where cpu_has() says the CPU has it;
+// the headers it uses are included above the pragma, so that their inline functions stay baseline
+// code. (GCC 12's AVX-512 intrinsics trip -Wuninitialized: see simd_walk_avx512.cpp.)
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wuninitialized"
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
@@ -14,6 +14,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "core/construction/expand_face.h"
 #include "core/construction/merge_lists.h"
 #include "core/construction/merge_pairs.h"
 #include "core/construction/narrow_cell.h"
@@ -21,6 +22,7 @@
 #include "core/triangle_box.h"
 #include "cpu/merge_propose.h"
 #include "cpu/octant_masks.h"
+#include "cpu/triangle_planes.h"
 #include "irgrid/kernel/grid_layout.h"
 #include "irgrid/kernel/triangle.h"
 
@@ -30,6 +32,7 @@
 #include "cpu/merge_propose_lanes.h"
 #include "cpu/octant_masks_lanes.h"
 #include "cpu/simd_lanes_avx512.h"
+#include "cpu/triangle_planes_lanes.h"
 
 namespace irgrid {
 
@@ -56,6 +59,14 @@ template <>
 void propose_merges_with<SimdIsa::avx512>(const merge_detail::ProposeInputs& in,
                                           std::uint32_t first, std::uint32_t count) {
   simd::ProposeLanes<simd::Avx512Lanes>::propose(in, first, count);
+}
+
+template <>
+void triangle_planes_in_lanes<SimdIsa::avx512>(const GridInfo& info,
+                                               const TriangleVertices* triangles,
+                                               std::uint32_t count,
+                                               expand_detail::TrianglePlanes* out) {
+  simd::TrianglePlanesLanes<simd::Avx512Lanes>::planes_of(info, triangles, count, out);
 }
 
 }  // namespace irgrid

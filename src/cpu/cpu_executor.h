@@ -19,6 +19,7 @@
 #include "cpu/parallel.h"
 #include "cpu/pooled_allocator.h"
 #include "cpu/radix_sort.h"
+#include "cpu/triangle_planes.h"
 
 namespace irgrid {
 
@@ -71,6 +72,14 @@ class CpuExecutor {
   static void propose_merges_in_lanes(const merge_detail::ProposeInputs& in, std::uint32_t first,
                                       std::uint32_t count) {
     irgrid::propose_merges_in_lanes(in, first, count);
+  }
+
+  /// The expansion's triangle planes come from triangle_planes_of, many triangles at once in
+  /// SIMD lanes (cpu/triangle_planes.h), the same planes.
+  static constexpr bool kTrianglePlanesInLanes = true;
+  static void triangle_planes(const GridInfo& info, const TriangleVertices* triangles,
+                              std::uint32_t count, expand_detail::TrianglePlanes* out) {
+    irgrid::triangle_planes_of(info, triangles, count, out);
   }
 
   /// Merging pairs the cells of each proposal chain by walking it from its head in one body

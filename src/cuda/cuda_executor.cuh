@@ -65,6 +65,8 @@ class CudaExecutor {
   static constexpr bool kDepthFirstOctrees = false;
   /// Masks one (node, triangle) pair per thread (CpuExecutor::kOctreeMasksInLanes).
   static constexpr bool kOctreeMasksInLanes = false;
+  /// Triangle planes one triangle per thread (CpuExecutor::kTrianglePlanesInLanes).
+  static constexpr bool kTrianglePlanesInLanes = false;
   /// Proposals one cell per thread (CpuExecutor::kProposesInLanes; the lanes' calls sit in
   /// branches this flag discards).
   static constexpr bool kProposesInLanes = false;

@@ -96,13 +96,24 @@ void expand_boxes(Exec& exec, const GridArrays<Exec>& grid, StoredCell* cells, i
   // that fit compressed cells).
   typename Exec::template Buffer<TrianglePlanes> planes;
   if (partial && fits_compact_cells(grid.info)) {
-    planes = exec.template allocate<TrianglePlanes>(grid.triangles.size());
+    const std::size_t count = grid.triangles.size();
+    planes = exec.template allocate<TrianglePlanes>(count);
     TrianglePlanes* d_planes = planes.data();
     const TriangleVertices* d_triangles = grid.triangles.data();
     const GridInfo info = grid.info;
-    exec.for_each("triangle planes", grid.triangles.size(), [=] IRGRID_HD(std::size_t t) {
-      d_planes[t] = triangle_planes(info, TriangleBounds{d_triangles[t]});
-    });
+    if constexpr (Exec::kTrianglePlanesInLanes) {
+      // Batches of triangles, each in SIMD lanes.
+      constexpr std::size_t kBatch = 1024;
+      exec.for_each("triangle planes", (count + kBatch - 1) / kBatch, [=](std::size_t b) {
+        const std::size_t first = b * kBatch;
+        const std::size_t size = count - first < kBatch ? count - first : kBatch;
+        Exec::triangle_planes(info, d_triangles + first, std::uint32_t(size), d_planes + first);
+      });
+    } else {
+      exec.for_each("triangle planes", count, [=] IRGRID_HD(std::size_t t) {
+        d_planes[t] = triangle_planes(info, TriangleBounds{d_triangles[t]});
+      });
+    }
   }
   const TrianglePlanes* d_planes = planes.empty() ? nullptr : planes.data();
   const auto grow_along = [&](auto axis) {
