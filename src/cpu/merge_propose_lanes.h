@@ -13,6 +13,8 @@
 
 #include <cstdint>
 
+#include "cpu/map_lookup_lanes.h"
+
 namespace irgrid::simd {
 
 template <class V>
@@ -54,30 +56,12 @@ struct ProposeLanes {
 
   /// lookup_cell for voxel v of the lanes of m.
   static I lookup_cells(const GridInfo& info, const Entry* entries, const I (&v)[3], M m) {
-    I top[3];
-    for (int a = 0; a < 3; ++a)
-      top[a] = V::shift_right(v[a], info.shift);
-    const I top_index = V::add(V::mul(V::add(V::mul(top[2], V::splat(info.top_dims[1])), top[1]),
-                                      V::splat(info.top_dims[0])),
-                               top[0]);
-    I entry = V::template gather<4>(V::splat(0), entries, top_index, m);
+    using Map = MapLookupLanes<V>;
+    I entry = V::template gather<4>(V::splat(0), entries, Map::top_entry_index(info, v), m);
     I level_shift = V::splat(info.shift);
-    const I zero = V::splat(0), one = V::splat(1);
-    for (;;) {
-      const I log_dim = V::template shift_right_logical<30>(entry);
-      const M inner = V::both(m, V::greater(log_dim, zero));
-      if (!V::any(inner)) break;
-      const I child_mask = V::sub(V::shift_left(one, log_dim), one);
-      level_shift = V::select(inner, level_shift, V::sub(level_shift, log_dim));
-      I child[3];
-      for (int a = 0; a < 3; ++a)
-        child[a] = V::bit_and(V::shift_right(v[a], level_shift), child_mask);
-      const I offset = V::bit_or(
-          V::shift_left(V::bit_or(V::shift_left(child[2], log_dim), child[1]), log_dim), child[0]);
-      const I index = V::add(V::bit_and(entry, V::splat(std::int32_t(kMaxEntryTarget))), offset);
-      entry = V::select(inner, entry, V::template gather<4>(V::splat(0), entries, index, inner));
-    }
-    return V::bit_and(entry, V::splat(std::int32_t(kMaxEntryTarget)));
+    for (M inner = Map::inner(entry, m); V::any(inner); inner = Map::inner(entry, inner))
+      entry = Map::descend(entries, entry, v, level_shift, inner);
+    return Map::target(entry);
   }
 
   /// half_area of the boxes [lo, hi).

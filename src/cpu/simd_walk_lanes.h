@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <span>
 
+#include "cpu/map_lookup_lanes.h"
 #include "cpu/staged_hits.h"
 #include "irgrid/accelerator.h"
 #include "irgrid/kernel/grid_traverse.h"
@@ -567,24 +568,19 @@ struct LaneWalk {
   /// of one group wait for memory while the others' are in flight too.
   template <typename CellT>
   static void find_cells(const GridView& grid, const CellT* cells, Group (&groups)[G]) {
+    using Map = MapLookupLanes<V>;
     const GridInfo& info = grid.info;
-    const I zero = V::splat(0), one = V::splat(1);
-    const I target_bits = V::splat(std::int32_t(kMaxEntryTarget));
+    const I zero = V::splat(0);
     I v[G][3], entry[G], level_shift[G];
     M inner[G];
     for (int g = 0; g < G; ++g) {
       const M active = V::lanes(groups[g].active);
       for (int a = 0; a < 3; ++a)
         v[g][a] = V::load(groups[g].s.voxel[a]);
-      const I top_x = V::shift_right(v[g][0], info.shift);
-      const I top_y = V::shift_right(v[g][1], info.shift);
-      const I top_z = V::shift_right(v[g][2], info.shift);
-      const I top = V::add(V::mul(V::add(V::mul(top_z, V::splat(info.top_dims[1])), top_y),
-                                  V::splat(info.top_dims[0])),
-                           top_x);
+      const I top = Map::top_entry_index(info, v[g]);
       entry[g] = V::template gather<4>(zero, grid.entries, top, active);
       level_shift[g] = V::splat(info.shift);
-      inner[g] = V::both(active, V::greater(V::template shift_right_logical<30>(entry[g]), zero));
+      inner[g] = Map::inner(entry[g], active);
       // Top cells with triangles store radius 0, so the radii are read for every active lane:
       // masking them by the entry would make this read wait for the entry's.
       I radius = zero;
@@ -604,21 +600,12 @@ struct LaneWalk {
       for (int g = 0; g < G; ++g) {
         if (!V::any(inner[g])) continue;
         descending = true;
-        const I k = V::template shift_right_logical<30>(entry[g]);  // 0 in leaf and idle lanes
-        const I mask = V::sub(V::shift_left(one, k), one);
-        level_shift[g] = V::sub(level_shift[g], k);
-        const I cx = V::bit_and(V::shift_right(v[g][0], level_shift[g]), mask);
-        const I cy = V::bit_and(V::shift_right(v[g][1], level_shift[g]), mask);
-        const I cz = V::bit_and(V::shift_right(v[g][2], level_shift[g]), mask);
-        const I child = V::bit_or(V::shift_left(V::bit_or(V::shift_left(cz, k), cy), k), cx);
-        const I index = V::add(V::bit_and(entry[g], target_bits), child);
-        entry[g] = V::template gather<4>(entry[g], grid.entries, index, inner[g]);
-        inner[g] =
-            V::both(inner[g], V::greater(V::template shift_right_logical<30>(entry[g]), zero));
+        entry[g] = Map::descend(grid.entries, entry[g], v[g], level_shift[g], inner[g]);
+        inner[g] = Map::inner(entry[g], inner[g]);
       }
     }
     for (int g = 0; g < G; ++g)
-      load_cells(cells, V::bit_and(entry[g], target_bits), V::lanes(groups[g].active), groups[g].c);
+      load_cells(cells, Map::target(entry[g]), V::lanes(groups[g].active), groups[g].c);
     // The reference lists are read next, one group after another: requested here, the lists of
     // all groups are in flight at once. (Idle lanes request one too: that costs less than
     // picking the active ones.)
