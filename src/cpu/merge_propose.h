@@ -5,9 +5,9 @@
 // surface-area comparison, then the size of the two lists' union where the comparison leaves it
 // open. Here one lane holds one cell (16 with AVX-512, 8 with AVX2): the map's levels are read
 // with gathers for all lanes together, the checks are lane-wise, and only the lanes that pass
-// them walk their lists' union, in scalar code. Every lane repeats the scalar proposal's
-// operations, so the proposals are the same (tests/test_merge_propose.cpp, and the grids'
-// fingerprints).
+// them count their lists' union, the shorter list held in lanes and compared against each value
+// of the other. Every lane repeats the scalar proposal's operations, so the proposals and union
+// sizes are the same (tests/test_grid_merge.cpp, GridMergeLanes, and the grids' fingerprints).
 #pragma once
 
 #include <cstdint>

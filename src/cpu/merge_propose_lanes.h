@@ -5,13 +5,15 @@
 // Every lane-wise line mirrors one of propose_merges, voxel_past_upper_face, lookup_cell,
 // proposes_merge, half_area or empty_merge_keeps_shape (core/construction/merge_pairs.h,
 // irgrid/kernel/grid_layout.h) with the same integer and float operations in the same order
-// (no FMA: -ffp-contract=off). The lanes that pass every check but the union's size leave the
-// sorted union's walk, a loop of its own length per cell, to scalar code.
+// (no FMA: -ffp-contract=off). The lanes that pass every check but the union's size then count
+// their lists' union one cell at a time (union_size).
 #pragma once
 
 #include <immintrin.h>
 
+#include <bit>
 #include <cstdint>
+#include <utility>
 
 #include "cpu/map_lookup_lanes.h"
 
@@ -86,6 +88,27 @@ struct ProposeLanes {
         thinnest = V::select(compare<_CMP_LT_OQ>(side, thinnest), thinnest, side);
     }
     return compare<_CMP_LE_OQ>(length, V::mul(V::splat(empty_aspect), thinnest));
+  }
+
+  /// sorted_union_size(a, na, b, nb) (core/construction/merge_lists.h): where the shorter list
+  /// fits the lanes, it is held in them and each value of the other is compared against all of it
+  /// at once (the values are unique, so each matches at most once), which needs no loop-carried
+  /// step through both lists as the scalar merge does; longer lists take that merge. Reads
+  /// a[0, na) and b[0, nb) only.
+  static std::uint32_t union_size(const std::uint32_t* a, std::uint32_t na, const std::uint32_t* b,
+                                  std::uint32_t nb) {
+    if (na > nb) {
+      std::swap(a, b);
+      std::swap(na, nb);
+    }
+    if (na == 0) return nb;
+    if (na > std::uint32_t(L)) return sorted_union_size(a, na, b, nb);
+    const M valid = V::lanes((2u << (na - 1)) - 1);
+    const I values = V::load_lanes(a, valid);
+    M shared = V::no_lanes();
+    for (std::uint32_t j = 0; j < nb; ++j)
+      shared = V::either(shared, V::equal(values, V::splat(std::int32_t(b[j]))));
+    return na + nb - std::uint32_t(std::popcount(V::bits(V::both(shared, valid))));
   }
 
   static void propose(const merge_detail::ProposeInputs& in, std::uint32_t first,
@@ -164,8 +187,7 @@ struct ProposeLanes {
       for (std::uint32_t left = proposing; left != 0; left &= left - 1) {
         const int l = __builtin_ctz(left);
         const auto n1 = std::uint32_t(n1_lanes[l]), n2 = std::uint32_t(n2_lanes[l]);
-        const std::uint32_t n12 =
-            sorted_union_size(in.refs + a_begin[l], n1, in.refs + b_begin[l], n2);
+        const std::uint32_t n12 = union_size(in.refs + a_begin[l], n1, in.refs + b_begin[l], n2);
         if (merged_lanes[l] * (float(n12) + in.cost_ratio) > budget_lanes[l]) continue;
         in.next[base + l] = std::uint32_t(owner_lanes[l]);
         in.union_size[base + l] = n12;
