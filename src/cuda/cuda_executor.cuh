@@ -22,6 +22,7 @@
 #include <string>
 #include <type_traits>
 
+#include "core/construction/device_build_path.h"
 #include "cuda/device_buffer.cuh"
 #include "irgrid/error.h"
 
@@ -55,33 +56,10 @@ inline unsigned launch_blocks(std::size_t n, unsigned threads) {
 /// contract of every call; the differences are noted here). Buffers live in device memory and
 /// come from the executor's DevicePool, which must outlive them: keep the executor alive as long
 /// as the grid it built. Calls that return a value to the host (scan totals, reductions,
-/// selection counts) wait for the stream; the rest only enqueue work.
-class CudaExecutor {
+/// selection counts) wait for the stream; the rest only enqueue work. Its build flags
+/// (DeviceBuildPath) pick the phases' GPU ways.
+class CudaExecutor : public DeviceBuildPath {
  public:
-  /// One cell per thread: warps hide the latency of voxel-map walks (CpuExecutor::kLookupBatch).
-  static constexpr std::uint32_t kLookupBatch = 1;
-
-  /// Octrees level by level: a few wide passes per level (CpuExecutor::kDepthFirstOctrees).
-  static constexpr bool kDepthFirstOctrees = false;
-  /// Masks one (node, triangle) pair per thread (CpuExecutor::kOctreeMasksInLanes).
-  static constexpr bool kOctreeMasksInLanes = false;
-  /// Triangle planes one triangle per thread (CpuExecutor::kTrianglePlanesInLanes).
-  static constexpr bool kTrianglePlanesInLanes = false;
-  /// Proposals one cell per thread (CpuExecutor::kProposesInLanes; the lanes' calls sit in
-  /// branches this flag discards).
-  static constexpr bool kProposesInLanes = false;
-
-  /// Merge chains by pointer jumping: a serial walk of a long chain would hold up its warp
-  /// (CpuExecutor::kSerialMergeChains).
-  static constexpr bool kSerialMergeChains = false;
-
-  /// Merged cells go to new arrays (CpuExecutor::kCompactsInPlace).
-  static constexpr bool kCompactsInPlace = false;
-
-  /// No host-memory estimate for the build (CpuExecutor::memory_budget): the build's arrays
-  /// live on the device, whose allocations fail with an error when it is full.
-  static std::uint64_t memory_budget() { return 0; }
-
   template <typename T>
   using Buffer = cuda::DeviceBuffer<T>;
 
