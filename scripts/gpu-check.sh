@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # The GPU comparison in one shot. Here: builds bundle/ (scripts/gpu-bundle.sh with Embree, for the
 # cwbvh builder, and Sponza, Conference and Crown) and checks it fits the 64 MiB a device call
-# carries. There: `bash bundle/run.sh` (scripts/gpu-check-device.sh) runs the gpu-labelled tests,
-# the CUDA example, compute-sanitizer memcheck and racecheck, the paper table and rebuild timings,
-# writing logs, JSON and summary.md to $OUT.
+# carries. There: `bash bundle/run.sh` (scripts/gpu-check-device.sh) runs the gpu-labelled
+# tests, the CUDA example, the paper table, compute-sanitizer memcheck and racecheck, and rebuild
+# timings within one deadline, writing logs, JSON and summary.md to $OUT.
 #
 # Usage: bash scripts/gpu-check.sh [extra scene files...]
 set -euo pipefail

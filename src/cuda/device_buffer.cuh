@@ -62,6 +62,7 @@ class DeviceBuffer {
   /// legacy default stream: a pageable copy may return before the data reached the device, so
   /// work on other streams must wait for that stream (or use the overload below).
   void upload(const T* host, std::size_t count) {
+    if (count == 0) return;  // an empty buffer's data() is null
     IRGRID_CUDA_CHECK(cudaMemcpy(data_, host, count * sizeof(T), cudaMemcpyHostToDevice));
   }
   /// Copies `count` elements from the host in `stream` order and waits for the copy, so work
@@ -73,6 +74,7 @@ class DeviceBuffer {
     IRGRID_CUDA_CHECK(cudaStreamSynchronize(stream));
   }
   void download(T* host, std::size_t count) const {
+    if (count == 0) return;
     IRGRID_CUDA_CHECK(cudaMemcpy(host, data_, count * sizeof(T), cudaMemcpyDeviceToHost));
   }
   /// Copies every element to the host, into `host` (resized).
