@@ -221,6 +221,49 @@ TEST_P(GridMerge, TheGpuWayOfMergingGivesTheSameGrid) {
   }
 }
 
+/// Chains of proposals as next/prev arrays: cells [first, first + length) linked in order.
+void link_chain(std::vector<std::uint32_t>& next, std::vector<std::uint32_t>& prev,
+                std::uint32_t first, std::uint32_t length) {
+  for (std::uint32_t k = 0; k + 1 < length; ++k) {
+    next[first + k] = first + k + 1;
+    prev[first + k + 1] = first + k;
+  }
+}
+
+TEST(GridMergeChains, PointerJumpingGivesTheSerialWalksParities) {
+  // Chains of 1 to 300 cells (longer than 2^8, so the jumps need 9 passes) between lone cells.
+  const std::uint32_t n = 2000;
+  std::vector<std::uint32_t> next(n, merge_detail::kNoCell), prev(n, merge_detail::kNoCell);
+  for (std::uint32_t first = 0, length = 1; first + length <= n;
+       first += length + 1, length = length * 3 % 301 + 1)
+    link_chain(next, prev, first, length);
+  CpuExecutor serial;
+  GpuWayExecutor jumping;
+  const auto walked = merge_detail::chain_parity(serial, next.data(), prev.data(), n);
+  const auto jumped = merge_detail::chain_parity(jumping, next.data(), prev.data(), n);
+  ASSERT_EQ(walked.size(), jumped.size());
+  for (std::uint32_t i = 0; i < n; ++i)
+    EXPECT_EQ(walked[i], jumped[i]) << "cell " << i;
+}
+
+// A cycle cannot come from proposals along an axis; were one there, pointer jumping would loop
+// for ever (a GPU build would hang), so it is reported instead.
+TEST(GridMergeChains, PointerJumpingReportsACycleInsteadOfLooping) {
+  const std::uint32_t n = 64;
+  std::vector<std::uint32_t> next(n, merge_detail::kNoCell), prev(n, merge_detail::kNoCell);
+  link_chain(next, prev, 10, 5);
+  next[14] = 10;
+  prev[10] = 14;
+  GpuWayExecutor jumping;
+  try {
+    merge_detail::chain_parity(jumping, next.data(), prev.data(), n);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ErrorCode::internal);
+    EXPECT_NE(std::string(e.what()).find("cycle"), std::string::npos) << e.what();
+  }
+}
+
 // The merged cells are compacted in place; their array ends at its size, not the first sweep's.
 TEST_P(GridMerge, MergedCellsTakeNoMoreMemoryThanTheirCount) {
   const MergeCase& c = merge_case(GetParam());

@@ -30,6 +30,7 @@
 #include "core/construction/cells.h"
 #include "core/construction/merge_lists.h"
 #include "core/construction/narrow_cell.h"
+#include "irgrid/error.h"
 
 namespace irgrid {
 
@@ -248,7 +249,12 @@ typename Exec::template Buffer<std::uint8_t> chain_parity(Exec& exec, const std:
       exec, "merge rank members", n, [=] IRGRID_HD(std::uint32_t i) { return prev[i] != kNoCell; },
       count);
   const std::uint32_t* member = members.data();
-  for (;;) {
+  // Each pass doubles the distance jumped, so a chain of fewer than 2^32 cells resolves within
+  // 32 passes; more means prev holds a cycle (proposals along an axis cannot form one), which
+  // would otherwise loop here for ever.
+  for (int pass = 0;; ++pass) {
+    if (pass > 32)
+      throw Error(ErrorCode::internal, "merging: proposal chains that do not end (a cycle)");
     const std::uint32_t pending = exec.transform_reduce(
         "merge rank check", count, std::uint32_t(0),
         [] IRGRID_HD(std::uint32_t x, std::uint32_t y) { return x + y; },
