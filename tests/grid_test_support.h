@@ -41,6 +41,15 @@ inline GridArrays<CpuExecutor> build_test_grid(const Scene& scene,
   return grid;
 }
 
+/// Whether two arrays (of the same element type) hold the same bytes; empty ones, whose data()
+/// may be null, are equal without a memcmp.
+template <typename ArrayA, typename ArrayB>
+bool same_bytes(const ArrayA& a, const ArrayB& b) {
+  static_assert(sizeof(*a.data()) == sizeof(*b.data()));
+  return a.size() == b.size() &&
+         (a.size() == 0 || std::memcmp(a.data(), b.data(), a.size() * sizeof(*a.data())) == 0);
+}
+
 /// Expects two grids to be equal bit for bit: scalars, voxel map (and its level offsets), cells,
 /// references and empty radii. The grids may come from different executors.
 template <typename GridA, typename GridB>
@@ -48,9 +57,9 @@ void expect_same_grid(const GridA& a, const GridB& b) {
   ASSERT_EQ(std::memcmp(&a.info, &b.info, sizeof(GridInfo)), 0);
   EXPECT_EQ(a.level_offsets, b.level_offsets);
   ASSERT_EQ(a.entries.size(), b.entries.size());
-  EXPECT_EQ(std::memcmp(a.entries.data(), b.entries.data(), a.entries.size() * sizeof(Entry)), 0);
+  EXPECT_TRUE(same_bytes(a.entries, b.entries));
   ASSERT_EQ(a.cells.size(), b.cells.size());
-  EXPECT_EQ(std::memcmp(a.cells.data(), b.cells.data(), a.cells.size() * sizeof(Cell)), 0);
+  EXPECT_TRUE(same_bytes(a.cells, b.cells));
   EXPECT_TRUE(std::equal(a.refs.begin(), a.refs.end(), b.refs.begin(), b.refs.end()));
   EXPECT_TRUE(std::equal(a.empty_radii.begin(), a.empty_radii.end(), b.empty_radii.begin(),
                          b.empty_radii.end()));

@@ -78,10 +78,7 @@ void expect_device_path_builds_the_same(const Scene& scene, const BuildConfig& c
                                         const BuiltGrid<CpuExecutor>& cpu) {
   const BuiltGrid<Exec> device_path = build_with<Exec>(scene, config);
   testing::expect_same_grid(cpu.grid, device_path.grid);
-  ASSERT_EQ(cpu.compact.size(), device_path.compact.size());
-  EXPECT_EQ(std::memcmp(cpu.compact.data(), device_path.compact.data(),
-                        cpu.compact.size() * sizeof(CompactCell)),
-            0);
+  EXPECT_TRUE(testing::same_bytes(cpu.compact, device_path.compact));
   // The device path builds its octrees level by level.
   EXPECT_TRUE(device_path.phases[std::size_t(BuildPhase::octree_levels)].has_value());
 }
