@@ -215,6 +215,44 @@ TEST(GpuGrid, TraceDeviceOnAStreamEqualsTrace) {
 #endif
 }
 
+/// An error the caller's own CUDA work left pending (here a failed cudaMalloc) is reported as
+/// theirs before trace_device queues anything, and cleared: the next call traces.
+TEST(GpuGrid, TraceDeviceReportsTheCallersPendingErrorAsTheirs) {
+  IRGRID_SKIP_WITHOUT_GPU();
+#if IRGRID_HAS_CUDA
+  const Scene scene = load_scene("builtin:teapot-stadium:4000");
+  const auto rays = camera_rays(scene);
+  AcceleratorOptions options;
+  options.backend = Backend::cuda;
+  for (const Structure structure : {Structure::irregular, Structure::brute}) {
+    const auto gpu = make_accelerator(scene, structure, options);
+    std::vector<Hit> expected(rays.size());
+    gpu->trace(rays, expected, Query::closest);
+    // Real arrays, so that a call that wrongly went ahead would only trace.
+    Ray* d_rays = nullptr;
+    Hit* d_hits = nullptr;
+    ASSERT_EQ(cudaMalloc(&d_rays, rays.size() * sizeof(Ray)), cudaSuccess);
+    ASSERT_EQ(cudaMalloc(&d_hits, rays.size() * sizeof(Hit)), cudaSuccess);
+    ASSERT_EQ(cudaMemcpy(d_rays, rays.data(), rays.size() * sizeof(Ray), cudaMemcpyHostToDevice),
+              cudaSuccess);
+    void* too_large = nullptr;
+    ASSERT_NE(cudaMalloc(&too_large, std::size_t(1) << 62), cudaSuccess);
+    try {
+      gpu->trace_device(d_rays, d_hits, rays.size(), Query::closest, nullptr);
+      ADD_FAILURE() << "no error for " << to_string(structure);
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("an earlier CUDA call"), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(cudaDeviceSynchronize(), cudaSuccess);
+    cudaFree(d_rays);
+    cudaFree(d_hits);
+    const auto hits = trace_on_device(*gpu, rays, Query::closest);
+    EXPECT_EQ(std::memcmp(hits.data(), expected.data(), hits.size() * sizeof(Hit)), 0)
+        << to_string(structure);
+  }
+#endif
+}
+
 /// trace over the caller's arrays (RayArrays, HitArrays) on CUDA: the hits of the CPU's, and
 /// the normals from the triangles copied back from the device, after a rebuild too.
 TEST(GpuGrid, CallerArraysWithNormalsTraceAsOnTheCpu) {

@@ -206,7 +206,9 @@ class Accelerator {
   /// CUDA backend: traces `count` rays at d_rays into d_hits, both in device memory, on the
   /// caller's `stream` (nullptr: the default stream). Asynchronous: no host copies and no host
   /// synchronisation; the hits are ready when the stream reaches that point. The accelerator
-  /// must outlive the work queued. Throws Error{invalid_argument} on other backends.
+  /// must outlive the work queued. Throws Error{invalid_argument} on other backends. A CUDA
+  /// error that the caller's own earlier calls left pending (cudaGetLastError) is thrown, and
+  /// cleared, before anything is queued, its message naming it as an earlier call's.
   virtual void trace_device(const Ray* d_rays, Hit* d_hits, std::size_t count, Query query,
                             CUstream_st* stream = nullptr) const;
 

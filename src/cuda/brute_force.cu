@@ -61,7 +61,9 @@ class BruteForceCuda final : public Accelerator {
 
   void trace_device(const Ray* d_rays, Hit* d_hits, std::size_t count, Query query,
                     CUstream_st* stream) const override {
-    if (count > 0) launch(d_rays, d_hits, count, query, stream);
+    if (count == 0) return;
+    IRGRID_CUDA_CHECK_NONE_PENDING("trace_device");
+    launch(d_rays, d_hits, count, query, stream);
   }
 
  private:

@@ -29,6 +29,14 @@ std::string memory_summary();
     IRGRID_CUDA_CHECK(cudaGetLastError());                                    \
     ::irgrid::cuda::check(cudaDeviceSynchronize(), name, __FILE__, __LINE__); \
   } while (0)
+/// Before a launch queued for the caller (trace_device): an error that one of the caller's own
+/// earlier calls left pending (a failed cudaMalloc, a bad launch) is reported as theirs, and
+/// cleared, instead of being read after the launch and blamed on it.
+#define IRGRID_CUDA_CHECK_NONE_PENDING(name)                                                   \
+  ::irgrid::cuda::check(cudaGetLastError(),                                                    \
+                        "an earlier CUDA call of the caller (its error was pending when " name \
+                        " began)",                                                             \
+                        __FILE__, __LINE__)
 /// After a kernel launch queued for the caller (trace_device): the launch error only, without
 /// waiting for the kernel; its own errors surface at the caller's next synchronisation.
 #define IRGRID_CUDA_CHECK_ASYNC_LAUNCH(name) \

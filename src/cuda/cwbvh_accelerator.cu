@@ -71,6 +71,7 @@ class CwbvhCuda final : public Accelerator {
   void trace_device(const Ray* d_rays, Hit* d_hits, std::size_t count, Query query,
                     CUstream_st* stream) const override {
     if (count == 0) return;
+    IRGRID_CUDA_CHECK_NONE_PENDING("trace_device");
     launch(query, d_rays, d_hits, nullptr, count, stream);
     IRGRID_CUDA_CHECK_ASYNC_LAUNCH("cwbvh traversal kernel");
   }

@@ -82,6 +82,7 @@ class GridCuda final : public GridAcceleratorBase {
   void trace_device(const Ray* d_rays, Hit* d_hits, std::size_t count, Query query,
                     CUstream_st* stream) const override {
     if (count == 0) return;
+    IRGRID_CUDA_CHECK_NONE_PENDING("trace_device");
     if (empty_scene_) {
       fill_misses_kernel<<<blocks_for(count), kTraceThreads, 0, stream>>>(d_hits, count);
       IRGRID_CUDA_CHECK_ASYNC_LAUNCH("miss fill kernel");
