@@ -193,25 +193,33 @@ std::vector<Ray> camera_rays(const Scene& scene) {
   config.width = 96, config.height = 64;
   return generate_rays(scene, scene_views(scene).front(), RayKind::primary, config, nullptr);
 }
+
+/// visit(structure, accelerator, rays) for the irregular grid and brute force on CUDA over the
+/// 4,000-triangle teapot stadium, with camera_rays of it.
+template <typename Visit>
+void for_each_cuda_tracer(Visit&& visit) {
+  const Scene scene = load_scene("builtin:teapot-stadium:4000");
+  const auto rays = camera_rays(scene);
+  AcceleratorOptions options;
+  options.backend = Backend::cuda;
+  for (const Structure structure : {Structure::irregular, Structure::brute})
+    visit(structure, *make_accelerator(scene, structure, options), rays);
+}
 #endif
 
 TEST(GpuGrid, TraceDeviceOnAStreamEqualsTrace) {
   IRGRID_SKIP_WITHOUT_GPU();
 #if IRGRID_HAS_CUDA
-  const Scene scene = load_scene("builtin:teapot-stadium:4000");
-  const auto rays = camera_rays(scene);
-  AcceleratorOptions options;
-  options.backend = Backend::cuda;
-  for (const Structure structure : {Structure::irregular, Structure::brute}) {
-    const auto gpu = make_accelerator(scene, structure, options);
-    for (Query query : {Query::closest, Query::any}) {
-      std::vector<Hit> expected(rays.size());
-      gpu->trace(rays, expected, query);
-      const auto hits = trace_on_device(*gpu, rays, query);
-      EXPECT_EQ(std::memcmp(hits.data(), expected.data(), hits.size() * sizeof(Hit)), 0)
-          << to_string(structure);
-    }
-  }
+  for_each_cuda_tracer(
+      [](Structure structure, const Accelerator& gpu, const std::vector<Ray>& rays) {
+        for (Query query : {Query::closest, Query::any}) {
+          std::vector<Hit> expected(rays.size());
+          gpu.trace(rays, expected, query);
+          const auto hits = trace_on_device(gpu, rays, query);
+          EXPECT_EQ(std::memcmp(hits.data(), expected.data(), hits.size() * sizeof(Hit)), 0)
+              << to_string(structure);
+        }
+      });
 #endif
 }
 
@@ -220,14 +228,10 @@ TEST(GpuGrid, TraceDeviceOnAStreamEqualsTrace) {
 TEST(GpuGrid, TraceDeviceReportsTheCallersPendingErrorAsTheirs) {
   IRGRID_SKIP_WITHOUT_GPU();
 #if IRGRID_HAS_CUDA
-  const Scene scene = load_scene("builtin:teapot-stadium:4000");
-  const auto rays = camera_rays(scene);
-  AcceleratorOptions options;
-  options.backend = Backend::cuda;
-  for (const Structure structure : {Structure::irregular, Structure::brute}) {
-    const auto gpu = make_accelerator(scene, structure, options);
+  for_each_cuda_tracer([](Structure structure, const Accelerator& gpu,
+                          const std::vector<Ray>& rays) {
     std::vector<Hit> expected(rays.size());
-    gpu->trace(rays, expected, Query::closest);
+    gpu.trace(rays, expected, Query::closest);
     // Real arrays, so that a call that wrongly went ahead would only trace.
     Ray* d_rays = nullptr;
     Hit* d_hits = nullptr;
@@ -238,7 +242,7 @@ TEST(GpuGrid, TraceDeviceReportsTheCallersPendingErrorAsTheirs) {
     void* too_large = nullptr;
     ASSERT_NE(cudaMalloc(&too_large, std::size_t(1) << 62), cudaSuccess);
     try {
-      gpu->trace_device(d_rays, d_hits, rays.size(), Query::closest, nullptr);
+      gpu.trace_device(d_rays, d_hits, rays.size(), Query::closest, nullptr);
       ADD_FAILURE() << "no error for " << to_string(structure);
     } catch (const Error& e) {
       EXPECT_NE(std::string(e.what()).find("an earlier CUDA call"), std::string::npos) << e.what();
@@ -246,10 +250,10 @@ TEST(GpuGrid, TraceDeviceReportsTheCallersPendingErrorAsTheirs) {
     EXPECT_EQ(cudaDeviceSynchronize(), cudaSuccess);
     cudaFree(d_rays);
     cudaFree(d_hits);
-    const auto hits = trace_on_device(*gpu, rays, Query::closest);
+    const auto hits = trace_on_device(gpu, rays, Query::closest);
     EXPECT_EQ(std::memcmp(hits.data(), expected.data(), hits.size() * sizeof(Hit)), 0)
         << to_string(structure);
-  }
+  });
 #endif
 }
 
