@@ -5,11 +5,13 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cstdint>
 #include <cstring>
 #include <limits>
 #include <map>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "core/construction/build_grid.h"
@@ -39,6 +41,14 @@ inline GridArrays<CpuExecutor> build_test_grid(const Scene& scene,
   PhaseTimes phases;
   build_grid(exec, grid, config, phases);
   return grid;
+}
+
+/// A GoogleTest name for a parameter "builtin:NAME[:N]": NAME[_N], other characters as '_'.
+inline std::string builtin_scene_test_name(const ::testing::TestParamInfo<std::string>& info) {
+  std::string name = info.param.substr(std::string_view("builtin:").size());
+  for (char& c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+  return name;
 }
 
 /// Whether two arrays (of the same element type) hold the same bytes; empty ones, whose data()

@@ -7,7 +7,6 @@
 // everywhere, so a phase that only works along the CPU's path fails here first.
 #include <gtest/gtest.h>
 
-#include <cctype>
 #include <cstdint>
 #include <cstring>
 #include <string>
@@ -129,12 +128,7 @@ const std::vector<std::string> kScenes = {"builtin:cornell",      "builtin:teapo
                                           "builtin:overlap:1000", "builtin:stack:3000"};
 
 INSTANTIATE_TEST_SUITE_P(Builtin, DevicePathBuild, ::testing::ValuesIn(kScenes),
-                         [](const auto& info) {
-                           std::string name = info.param.substr(8);
-                           for (char& c : name)
-                             if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-                           return name;
-                         });
+                         testing::builtin_scene_test_name);
 
 }  // namespace
 }  // namespace irgrid

@@ -14,6 +14,7 @@
 #include <utility>
 
 #include "core/construction/compress_cells.h"
+#include "core/construction/device_build_path.h"
 #include "core/triangle_box.h"
 #include "grid_test_support.h"
 #include "irgrid/io/random.h"
@@ -197,7 +198,7 @@ TEST_P(GridBuild, SameGridWhateverTheThreadCount) {
 
 /// The CPU executor with the GPU's way of building octrees: level by level, then assembled.
 struct LevelByLevelExecutor : CpuExecutor {
-  static constexpr bool kDepthFirstOctrees = false;
+  static constexpr bool kDepthFirstOctrees = DeviceBuildPath::kDepthFirstOctrees;
 };
 
 TEST_P(GridBuild, DepthFirstOctreesEqualTheLevelByLevelBuild) {
@@ -272,12 +273,8 @@ TEST_P(GridBuild, CompressedCellsExpandToTheSameBoxes) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Builtin, GridBuild, ::testing::ValuesIn(kScenes), [](const auto& info) {
-  std::string name = info.param.substr(8);
-  for (char& c : name)
-    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-  return name;
-});
+INSTANTIATE_TEST_SUITE_P(Builtin, GridBuild, ::testing::ValuesIn(kScenes),
+                         testing::builtin_scene_test_name);
 
 TEST(GridLimits, ClearyResolutionIsTheFloorOfExtentOverSide) {
   Pcg32 rng;

@@ -251,12 +251,8 @@ TEST_P(GridExpand, PassesStopOnceNoFaceMayGrow) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Builtin, GridExpand, ::testing::ValuesIn(kScenes), [](const auto& info) {
-  std::string name = info.param.substr(8);
-  for (char& ch : name)
-    if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
-  return name;
-});
+INSTANTIATE_TEST_SUITE_P(Builtin, GridExpand, ::testing::ValuesIn(kScenes),
+                         testing::builtin_scene_test_name);
 
 /// A voxel grid of 16^3 unit voxels from the origin, for hand-checked caps.
 GridInfo unit_grid(float padding) {

@@ -13,6 +13,7 @@
 #include <limits>
 #include <map>
 
+#include "core/construction/device_build_path.h"
 #include "core/construction/merge.h"
 #include "core/triangle_box.h"
 #include "cpu/merge_propose.h"
@@ -197,8 +198,8 @@ TEST_P(GridMerge, InPlaceSweepsGiveTheSameGridAsRebuildingOnes) {
 /// The CPU executor merging as the CUDA executor does: chains by pointer jumping, merged cells
 /// written to new arrays.
 struct GpuWayExecutor : CpuExecutor {
-  static constexpr bool kSerialMergeChains = false;
-  static constexpr bool kCompactsInPlace = false;
+  static constexpr bool kSerialMergeChains = DeviceBuildPath::kSerialMergeChains;
+  static constexpr bool kCompactsInPlace = DeviceBuildPath::kCompactsInPlace;
 };
 
 TEST_P(GridMerge, TheGpuWayOfMergingGivesTheSameGrid) {
@@ -590,12 +591,8 @@ TEST(GridMergeLimits, EmptyAspectBelowOneIsRejected) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Builtin, GridMerge, ::testing::ValuesIn(kScenes), [](const auto& info) {
-  std::string name = info.param.substr(8);
-  for (char& c : name)
-    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-  return name;
-});
+INSTANTIATE_TEST_SUITE_P(Builtin, GridMerge, ::testing::ValuesIn(kScenes),
+                         testing::builtin_scene_test_name);
 
 TEST(GridMergeParameters, AlphaOneAndAboveStopWhenNothingMerges) {
   const MergeCase& c = merge_case("builtin:cornell");
