@@ -348,9 +348,8 @@ struct LaneWalk {
   /// test_one_triangle) end here, so they agree bit for bit. kEarlyMiss: when every lane of
   /// `slots` misses on the edge functions' signs alone, return at once, before the division
   /// and the t bound (only what hit lanes read is skipped). test_one_triangle takes it: its lanes
-  /// test one triangle, which often lies beside all of their rays (Sponza's and Conference's
-  /// camera rays 2-5% faster); a gathered batch's lanes test different triangles and rarely all
-  /// miss (no gain there).
+  /// test one triangle, which often lies beside all of their rays; a gathered batch's lanes test
+  /// different triangles and rarely all miss (measured in docs/benchmarks.md).
   template <bool kEarlyMiss = false>
   static LaneHits intersect_lanes(const F (&px)[3], const F (&py)[3], const F (&pz)[3],
                                   const BatchRays& r, M slots) {
