@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <span>
 
+#include "cpu/prefetch_triangle.h"
 #include "cpu/ray_fields.h"
 #include "irgrid/accelerator.h"
 #include "irgrid/kernel/grid_traverse.h"
@@ -88,7 +89,7 @@ void trace_interleaved(const GridView& grid, const RayFields& rays, const HitFie
     for (int l = 0; l < active; ++l) {
       const Cell& cell = lanes[l].cell;
       for (std::uint32_t r = cell.begin; r < cell.end; ++r)
-        __builtin_prefetch(&grid.triangles[grid.refs[r]]);
+        prefetch_triangle(&grid.triangles[grid.refs[r]]);
     }
     // The tests and the step; a finished lane takes the next ray, or the last lane's place.
     for (int l = 0; l < active;) {

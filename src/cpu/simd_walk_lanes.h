@@ -17,6 +17,7 @@
 #include <span>
 
 #include "cpu/map_lookup_lanes.h"
+#include "cpu/prefetch_triangle.h"
 #include "cpu/staged_hits.h"
 #include "irgrid/accelerator.h"
 #include "irgrid/kernel/grid_traverse.h"
@@ -566,7 +567,7 @@ struct LaneWalk {
     for (int cell = 0; cell < cells; ++cell) {
       const std::uint32_t* refs = grid.refs + group.shared_begin[cell];
       for (int k = 0; k < group.shared_count[cell]; ++k)
-        __builtin_prefetch(grid.triangles + refs[k]);
+        prefetch_triangle(grid.triangles + refs[k]);
     }
     return true;
   }
@@ -862,7 +863,7 @@ struct LaneWalk {
         for (int row = 0; row < list.size; row += L) {
 #pragma GCC unroll 16
           for (int k = 0; k < L; ++k)
-            __builtin_prefetch(triangles + list.prim[row + k]);
+            prefetch_triangle(triangles + list.prim[row + k]);
         }
         return;
       }
@@ -876,7 +877,7 @@ struct LaneWalk {
           const std::uint32_t* ids = list.prim + list.size;
           list.append(l, grid.refs + begin + done, take, done);
           for (int k = 0; k < take; ++k)
-            __builtin_prefetch(triangles + ids[k]);
+            prefetch_triangle(triangles + ids[k]);
           done += take;
           if (list.size == TestList::kCapacity) run_tests(group);
         }
