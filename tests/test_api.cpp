@@ -203,6 +203,30 @@ TEST(Api, RebuildRefusesAnotherTriangleCountAndKeepsTracing) {
   EXPECT_TRUE(same_hits(a, b)) << "a refused rebuild leaves the grid as it was";
 }
 
+TEST(Api, AGridLeftOnSmallPagesHasTheSameArraysAndHits) {
+  // builtin:sphere:200000's arrays span several huge pages, so the default build moves them.
+  const Scene scene = load_scene("builtin:sphere:200000");
+  AcceleratorOptions small_pages;
+  small_pages.grid.huge_pages = false;
+  const auto moved = make_accelerator(scene, Structure::irregular);
+  const auto left = make_accelerator(scene, Structure::irregular, small_pages);
+  const GridView a = moved->grid_view(), b = left->grid_view();
+  ASSERT_EQ(a.info.num_cells, b.info.num_cells);
+  ASSERT_EQ(a.info.num_refs, b.info.num_refs);
+  ASSERT_EQ(a.info.num_entries, b.info.num_entries);
+  EXPECT_EQ(std::memcmp(a.refs, b.refs, a.info.num_refs * sizeof(a.refs[0])), 0);
+  EXPECT_EQ(std::memcmp(a.entries, b.entries, a.info.num_entries * sizeof(a.entries[0])), 0);
+  ASSERT_TRUE(a.compact_cells && b.compact_cells);
+  EXPECT_EQ(std::memcmp(a.compact_cells, b.compact_cells,
+                        (a.info.num_cells + 1) * sizeof(a.compact_cells[0])),
+            0);
+  const auto rays = mixed_rays(scene);
+  std::vector<Hit> ha(rays.size()), hb(rays.size());
+  moved->trace(rays, ha, Query::closest);
+  left->trace(rays, hb, Query::closest);
+  EXPECT_TRUE(same_hits(ha, hb));
+}
+
 TEST(Api, TheHeaderOnlyTraversalMatchesTrace) {
   for (const char* spec : {"builtin:cornell", "builtin:teapot-stadium:3000"})
     for (const bool compress : {true, false}) {

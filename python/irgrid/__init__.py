@@ -114,7 +114,7 @@ class Scene:
     "embree-packets", "cwbvh" (see irgrid.structures()). backend: "auto" (CUDA when a GPU is visible),
     "cpu" or "cuda". build_options: the grid's construction parameters (lambda1, lambda2,
     min_cells, split_refs, alpha, cost_ratio, empty_aspect, expansion_passes,
-    partial_expansion, skip_empty, compress, memory_budget).
+    partial_expansion, skip_empty, compress, huge_pages, memory_budget).
 
     The arrays are copied: they may change after the call. Building and tracing release the
     GIL and use every core; one Scene may be traced from several threads at once, but not while

@@ -319,6 +319,7 @@ NB_MODULE(_irgrid, m) {
       .def_rw("partial_expansion", &BuildConfig::partial_expansion)
       .def_rw("skip_empty", &BuildConfig::skip_empty)
       .def_rw("compress", &BuildConfig::compress)
+      .def_rw("huge_pages", &BuildConfig::huge_pages)
       .def_rw("memory_budget", &BuildConfig::memory_budget);
   nb::class_<PyAccelerator>(m, "Accelerator")
       .def(nb::init<const python::FloatRows&, const python::IndexRows&, const std::string&,

@@ -66,6 +66,15 @@ def test_inputs_of_every_documented_dtype_give_the_same_hits():
             assert np.array_equal(hits["primitive_ids"], expected["primitive_ids"])
 
 
+def test_a_grid_left_on_small_pages_gives_the_same_hits():
+    v, t = cube()
+    rays = np.random.default_rng(5).normal(size=(500, 6)).astype(np.float32)
+    expected = irgrid.Scene(v, t).cast_rays(rays)
+    hits = irgrid.Scene(v, t, huge_pages=False).cast_rays(rays)
+    for key in ("t_hit", "primitive_ids", "primitive_uvs"):
+        assert np.array_equal(hits[key], expected[key]), key
+
+
 @pytest.mark.parametrize("structure", irgrid.structures())
 def test_every_structure_matches_the_brute_force(structure):
     v, t = cube()

@@ -69,7 +69,7 @@ class GridCpu final : public GridAcceleratorBase {
       build_grid_and_compress(exec, grid_, compact_cells_, options_.grid, info_.phase_ms,
                               options_.on_phase, &phase_peaks);
     }
-    move_onto_huge_pages();
+    if (options_.grid.huge_pages) move_onto_huge_pages();
     info_.build_ms = elapsed_ms<std::chrono::steady_clock>(start);
     peak_outside = std::max<std::uint64_t>(peak_outside, MemoryMeter::peak());
     const std::uint64_t peak = peaks_beyond(phase_peaks, peak_outside, std::uint64_t(before));
@@ -79,7 +79,8 @@ class GridCpu final : public GridAcceleratorBase {
   }
 
   /// The grid's arrays, built on 4 KiB pages (HostPool), onto huge pages: rays read them at
-  /// random, and Crown's random rays were 10-12% slower on 4 KiB pages (Intel Xeon VM, one thread).
+  /// random, and Crown's and Sponza's random rays were 6-10% slower on 4 KiB pages (Intel Xeon VM).
+  /// BuildConfig::huge_pages turns it off.
   void move_onto_huge_pages() {
     const auto collapse = [this](auto& buffer) {
       pool_.move_onto_huge_pages(buffer.data(), buffer.capacity() * sizeof(buffer[0]));

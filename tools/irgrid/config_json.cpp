@@ -76,6 +76,7 @@ void add_build_stats_json(nlohmann::json& out, Structure structure, const BuildS
                    {"partial_expansion", grid->partial_expansion},
                    {"skip_empty", grid->skip_empty},
                    {"compress", grid->compress},
+                   {"huge_pages", grid->huge_pages},
                    {"memory_budget", grid->memory_budget}};
   if (structure == Structure::irregular && stats.grid)
     out["lambda2_used"] = stats.grid->lambda2_used;
