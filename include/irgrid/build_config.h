@@ -43,12 +43,10 @@ struct BuildConfig {
   bool skip_empty = true;
   /// 16-byte cells when the virtual grid fits 16 bits per axis.
   bool compress = true;
-  /// CPU on Linux: move the finished grid's arrays onto huge pages at the end of the build.
-  /// Incoherent rays then miss the TLB far less (random rays 6-10% faster on Crown and Sponza);
-  /// the move copies the arrays into fresh huge pages, which some VMs give slowly: on the Intel
-  /// Xeon VM of docs/benchmarks.md, Crown's 300 MiB took 3.5-4.5 s, 40-50% of a first build,
-  /// and Sponza's 26 MiB about 0.4 s, unless another process had just freed huge pages (then
-  /// 0.01-0.3 s). Off: a one-off build that traces few rays is done sooner. The grid and its
+  /// CPU on Linux: move the finished grid's arrays onto huge pages at the end of the build, so
+  /// that incoherent rays miss the TLB less. The move copies the arrays into fresh huge pages,
+  /// which some VMs give slowly (seconds for a large grid: docs/benchmarks.md, "huge pages: what
+  /// the move costs"). Off: a one-off build that traces few rays is done sooner. The grid and its
   /// hits are the same either way; the CUDA backend ignores it.
   bool huge_pages = true;
   /// Bytes the construction may spend on the grid's cells, map entries and references, as
